@@ -1,0 +1,3 @@
+from po3d_ppl.cli import main
+
+main()

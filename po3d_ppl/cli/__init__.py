@@ -1,0 +1,50 @@
+"""The ``po3d`` command line.
+
+Each stage owns one module here that exposes ``register(app)``; this file only assembles them and turns
+:class:`~po3d_ppl.errors.Po3dError` into a one-line message (exit code 2) instead of a traceback. Modules import
+their heavy dependencies inside the commands so that ``po3d --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+
+import typer
+from rich.console import Console
+
+from po3d_ppl.errors import Po3dError
+
+app = typer.Typer(
+    name="po3d",
+    help="po3d_ppl: probabilistic 3D-aware visual question answering.",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    add_completion=False,
+)
+#: Groups shared by several stages (``po3d train parser``, ``po3d eval parser`` ...).
+train_app = typer.Typer(help="Train a model and write its weights to models/.", no_args_is_help=True)
+eval_app = typer.Typer(help="Evaluate a model on a dataset split.", no_args_is_help=True)
+app.add_typer(train_app, name="train")
+app.add_typer(eval_app, name="eval")
+
+#: Command modules, in help order. Each defines ``register(app, train_app, eval_app)``.
+_MODULES = ("demo", "world", "dataset", "execute", "language", "answer")
+
+for _name in _MODULES:
+    try:
+        _module = importlib.import_module(f"po3d_ppl.cli.{_name}")
+    except ModuleNotFoundError as exc:  # a stage that has not landed yet
+        if exc.name != f"po3d_ppl.cli.{_name}":
+            raise
+        continue
+    _module.register(app, train_app, eval_app)
+
+
+def main() -> None:
+    console = Console(stderr=True)
+    try:
+        app()
+    except Po3dError as exc:
+        console.print(f"[bold red]error:[/] {exc}", highlight=False)
+        sys.exit(2)

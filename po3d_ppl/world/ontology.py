@@ -1,0 +1,229 @@
+"""The vocabulary of the world: the single source of truth for categories, subtypes, parts and attributes.
+
+Everything here is derived from the two files of the public release that ship in ``world/data``:
+``part_dict.json`` (raw part names per subtype; the *order* of each list defines part ids, spec §1.4) and
+``properties.json`` (colour RGB, sizes, hierarchy). Every other module imports its names from here, so the
+world, the question engine, the grammar and the reasoning engine cannot drift apart.
+
+Conventions:
+- subtype ids follow ``SUBTYPES`` (grouped by category, in the order of spec §1.4);
+- part ids are positions in ``PARTS[subtype]``;
+- ``addi`` ("regular car") exists in the public metadata but is never rendered; it is kept only in
+  :data:`HYPERNYM_MEMBERS` so imported public programs that mention it still resolve.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from functools import cache
+from importlib import resources
+from types import MappingProxyType
+
+from po3d_ppl.errors import UnknownNameError
+
+
+def _load(name: str) -> dict:
+    return json.loads(resources.files("po3d_ppl.world.data").joinpath(name).read_text())
+
+
+_PART_DICT = _load("part_dict.json")
+_PROPERTIES = _load("properties.json")
+
+#: The five categories (hypernyms), in the order used for category ids.
+CATEGORIES: tuple[str, ...] = ("car", "bus", "motorbike", "aeroplane", "bicycle")
+
+#: The 21 rendered subtypes, grouped by category (spec §1.4 order). Index = subtype id.
+SUBTYPES: tuple[str, ...] = (
+    "suv", "wagon", "minivan", "sedan", "truck",
+    "articulated", "regular", "double", "school",
+    "chopper", "dirtbike", "scooter", "cruiser",
+    "jet", "fighter", "biplane", "airliner",
+    "road", "utility", "mountain", "tandem",
+)
+
+#: subtype -> category, from ``properties.json`` ``info_hier``.
+CATEGORY_OF: MappingProxyType = MappingProxyType(
+    {s: cat for cat, members in _PROPERTIES["info_hier"].items() for s in members if s in SUBTYPES}
+)
+
+#: category -> all public subtypes, ``addi`` included (it only matters for hypernym matching).
+HYPERNYM_MEMBERS: MappingProxyType = MappingProxyType(
+    {cat: tuple(members) for cat, members in _PROPERTIES["info_hier"].items()}
+)
+
+#: subtype -> raw part names, in the order that defines part ids.
+PARTS: MappingProxyType = MappingProxyType({s: tuple(_PART_DICT[s]) for s in SUBTYPES})
+
+#: Largest number of parts of any subtype (cruiser: 26). Part-slot tensors have this width.
+MAX_PARTS: int = max(len(p) for p in PARTS.values())
+
+#: Every distinct raw part name (85), sorted. Index = global raw-part id.
+RAW_PART_NAMES: tuple[str, ...] = tuple(sorted({n for names in PARTS.values() for n in names}))
+
+COLORS: tuple[str, ...] = tuple(_PROPERTIES["colors"])
+COLOR_RGB: MappingProxyType = MappingProxyType({c: tuple(v) for c, v in _PROPERTIES["colors"].items()})
+MATERIALS: tuple[str, ...] = tuple(_PROPERTIES["materials"])  # ("rubber", "metal")
+SIZES: tuple[str, ...] = tuple(_PROPERTIES["sizes"])  # ("large", "small")
+SIZE_SCALE: MappingProxyType = MappingProxyType(dict(_PROPERTIES["sizes"]))
+
+#: The four facing directions of an object relative to the camera (spec §1.7).
+POSES: tuple[str, ...] = ("front", "back", "left", "right")
+#: Pose labels as stored in scene files; ``"None"`` marks the 30-degree dead zones.
+POSE_LABELS: tuple[str, ...] = tuple(f"{p}_pose" for p in POSES)
+NO_POSE = "None"
+
+#: The spatial relations of CLEVR (computed from 3D coordinates and the camera's ground directions).
+RELATIONS: tuple[str, ...] = ("left", "right", "behind", "front")
+#: Height and depth relations for the elevated-aeroplane extension (paper §6): ``above``/``below`` compare world
+#: heights, ``closer``/``farther`` compare distances to the camera, with the same margin as CLEVR's relations.
+HEIGHT_DEPTH_RELATIONS: tuple[str, ...] = ("above", "below", "closer", "farther")
+
+_DIRECTION_TOKENS = frozenset({"right", "left", "front", "back", "center", "mid"})
+
+
+def super_part_name(raw: str) -> str:
+    """The coarse part name shared by all instances: ``wheel_back_left`` -> ``wheel``, ``exhaust_left_s`` -> ``exhaust``."""
+    return "_".join(t for t in raw.split("_") if t not in _DIRECTION_TOKENS and t != "s")
+
+
+def readable_name(value: str) -> str:
+    """Words for a raw name, the public ``post_process_part_name`` rule (spec §3.4).
+
+    Split on ``_``, drop a trailing ``s`` token and move trailing direction tokens to the front:
+    ``wheel_back_left`` -> ``back left wheel``, ``door_left_s`` -> ``left door``.
+    """
+    tokens = value.split("_")
+    if len(tokens) > 1 and tokens[-1] == "s":
+        tokens = tokens[:-1]
+    lead: list[str] = []
+    while len(tokens) > 1 and tokens[-1] in _DIRECTION_TOKENS:
+        lead.insert(0, tokens.pop())
+    return " ".join(lead + tokens)
+
+
+#: Words for each subtype (``metadata.types.Shapename``): buses and bikes carry their category word.
+SUBTYPE_WORDS: MappingProxyType = MappingProxyType(
+    {
+        s: (f"{s} bus" if CATEGORY_OF[s] == "bus" else f"{s} bike" if CATEGORY_OF[s] == "bicycle" else s)
+        for s in SUBTYPES
+    }
+)
+
+#: Every coarse part name (35), sorted.
+SUPER_PART_NAMES: tuple[str, ...] = tuple(sorted({super_part_name(n) for n in RAW_PART_NAMES}))
+
+#: Values a ``filter_shape`` may take: subtypes and categories (hypernyms).
+SHAPE_VALUES: tuple[str, ...] = SUBTYPES + CATEGORIES
+#: Values a ``partfilter_partname`` may take: raw part names and super-part names.
+PARTNAME_VALUES: tuple[str, ...] = RAW_PART_NAMES + tuple(n for n in SUPER_PART_NAMES if n not in RAW_PART_NAMES)
+
+#: Value vocabulary per value type, as used in programs.
+VALUE_VOCABULARY: MappingProxyType = MappingProxyType(
+    {
+        "Color": COLORS,
+        "Material": MATERIALS,
+        "Size": SIZES,
+        "Shape": SHAPE_VALUES,
+        "Partname": PARTNAME_VALUES,
+        "Pose": POSE_LABELS,
+        "Relation": RELATIONS + HEIGHT_DEPTH_RELATIONS,
+    }
+)
+
+
+def category_of(subtype: str) -> str:
+    """Category of a subtype (``addi`` included), with a clear error for unknown names."""
+    for cat, members in HYPERNYM_MEMBERS.items():
+        if subtype in members:
+            return cat
+    raise UnknownNameError("subtype", subtype, SUBTYPES)
+
+
+def shape_matches(subtype: str, value: str) -> bool:
+    """``filter_shape`` semantics: the subtype itself or its category (hypernym) matches."""
+    return value == subtype or value == category_of(subtype)
+
+
+def partname_matches(raw: str, value: str) -> bool:
+    """``partfilter_partname`` semantics: the raw name itself or its super-part name matches.
+
+    The public code uses a substring test (``'wheel' in 'wheel_front'``); on this vocabulary it selects the same
+    parts as the super-part rule except for accidental substrings (``'light'`` would match ``head_light``), which
+    no template emits. We use the exact rule.
+    """
+    return value == raw or value == super_part_name(raw)
+
+
+def part_id(subtype: str, raw: str) -> int:
+    """Part id of raw part ``raw`` in ``subtype`` (its index in the part list)."""
+    try:
+        return PARTS[subtype].index(raw)
+    except ValueError:
+        raise UnknownNameError(f"part of {subtype}", raw, PARTS[subtype]) from None
+    except KeyError:
+        raise UnknownNameError("subtype", subtype, SUBTYPES) from None
+
+
+def pose_label(pose_degree: float) -> str:
+    """Pose label of an azimuth in degrees, with the 30-degree dead zones of spec §1.7.
+
+    ``pose_degree`` is the clockwise angle (seen from above) from the viewing direction to the object's front: 0
+    means the camera sees the object's back.
+    """
+    d = pose_degree % 360.0
+    if d < 30.0 or d > 330.0:
+        return "back_pose"
+    if 60.0 < d <= 120.0:
+        return "right_pose"
+    if 150.0 < d <= 210.0:
+        return "front_pose"
+    if 240.0 < d <= 300.0:
+        return "left_pose"
+    return NO_POSE
+
+
+def pose_relation(reference_degree: float, reference_label: str, other_degree: float) -> str | None:
+    """Pairwise pose relation of spec §2.3: ``same`` if the azimuths differ by < 45 degrees, ``opposite`` if by
+    > 135, else ``vertical``. ``None`` when the reference object's label is ``'None'`` (dead zone)."""
+    if reference_label == NO_POSE:
+        return None
+    diff = abs(reference_degree - other_degree) % 360.0
+    diff = min(diff, 360.0 - diff)
+    if diff < 45.0:
+        return "same"
+    if diff > 135.0:
+        return "opposite"
+    return "vertical"
+
+
+@dataclass(frozen=True)
+class PartSlot:
+    """One part of one subtype: its id, raw name and the names used in questions."""
+
+    subtype: str
+    index: int
+    raw: str
+
+    @property
+    def super_name(self) -> str:
+        return super_part_name(self.raw)
+
+    @property
+    def words(self) -> str:
+        return readable_name(self.raw)
+
+
+@cache
+def part_slots(subtype: str) -> tuple[PartSlot, ...]:
+    return tuple(PartSlot(subtype, i, n) for i, n in enumerate(PARTS[subtype]))
+
+
+def check_value(value_type: str, value: str) -> str:
+    """Return ``value`` if it belongs to ``value_type``'s vocabulary, else raise with the closest names."""
+    vocab = VALUE_VOCABULARY.get(value_type)
+    if vocab is None:
+        raise UnknownNameError("value type", value_type, VALUE_VOCABULARY)
+    if value not in vocab:
+        raise UnknownNameError(f"{value_type} value", value, vocab)
+    return value
