@@ -7,9 +7,9 @@ and shared between processes without copies going stale.
 
 Occlusion semantics used everywhere in po3d_ppl (documented in docs/semantics.md):
 - ``Occlusion.level`` follows the public rule (spec §1.6);
-- an entity is *occluded* iff ``occluded_by`` is non-empty; the world sets ``occluded_by`` to the objects whose
-  overlap with the entity's hidden pixels is at least :data:`MIN_OCCLUDER_PIXELS`, provided the level is 1 or 2
-  (the public data keeps only the largest such object; we keep all, largest first).
+- the world sets ``occluded_by`` to the objects whose overlap with the entity's hidden pixels is at least
+  :data:`MIN_OCCLUDER_PIXELS`, provided the level is 1 or 2 (the public data keeps only the largest such object; we
+  keep all, largest first), and ``occluded`` (what ``filter_occludee`` asks) to ``bool(occluded_by)``.
 """
 
 from __future__ import annotations
@@ -59,10 +59,15 @@ class Occlusion:
     #: Hidden-pixel overlap with every other object that covers the entity (object index -> pixels). Empty when
     #: unknown (scenes imported from public files carry only the largest occluder).
     overlaps: Mapping[int, int] = field(default_factory=dict)
+    #: The entity's occlusion state as questions see it (``filter_occludee``). The world keeps it equal to
+    #: ``bool(occluded_by)`` (the public "level > 0 and an occluder was found"); it is a field of its own because a
+    #: probabilistic scene (or a perception result) may hold the state and the occluders as separate variables, as
+    #: the reasoning engine does. ``None`` at construction means "derive it from ``occluded_by``".
+    occluded: bool | None = None
 
-    @property
-    def occluded(self) -> bool:
-        return bool(self.occluded_by)
+    def __post_init__(self) -> None:
+        if self.occluded is None:
+            object.__setattr__(self, "occluded", bool(self.occluded_by))
 
     @classmethod
     def from_overlaps(cls, unoccluded_pixels: int, hidden_pixels: int, overlaps: Mapping[int, int]) -> Occlusion:
@@ -137,8 +142,16 @@ class SceneObject:
         return ontology.pose_label(self.pose_degree)
 
     @property
+    def occluded(self) -> bool:
+        return bool(self.annotation and self.annotation.occlusion.occluded)
+
+    @property
     def occluded_by(self) -> tuple[int, ...]:
         return self.annotation.occlusion.occluded_by if self.annotation else ()
+
+    def part_occluded(self, raw: str) -> bool:
+        ann = self.part_annotations.get(raw)
+        return bool(ann and ann.occlusion.occluded)
 
     def part_occluded_by(self, raw: str) -> tuple[int, ...]:
         ann = self.part_annotations.get(raw)
