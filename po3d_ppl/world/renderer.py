@@ -1,0 +1,302 @@
+"""Ray-cast rendering of a layout: the image, exact id/part/depth maps and each object's solo footprint.
+
+Blender is far too heavy for our CPU budget, so the renderer casts one ray per pixel through
+:class:`po3d_ppl.world.raycast.RayCaster` (Embree) and shades hits with a small analytic model written here
+(no maintained library shades Embree hits with a Lambert/Blinn-Phong model on numpy arrays):
+
+- a ground plane at z = 0 (intersected analytically, it can never hide an object) lit by a key and a fill light;
+- rubber: Lambertian diffuse with a faint sheen; metal: darker diffuse, a strong white Blinn-Phong highlight and
+  a colour-tinted reflection of a sky/ground environment, so the two materials are told apart by eye;
+- hard shadows of the key light, cast only where a shadow is possible (object pixels, and ground pixels inside
+  the projected shadow hulls of the objects).
+
+**Solo footprints.** Occlusion needs what each object looks like rendered alone at the same camera. Instead of
+re-rendering the image per object, only the pixels of the object's projected box whose first hit is *another*
+object are cast again, against that object alone: any other pixel already shows the object or shows nothing
+that could hide it (a ray that misses every object misses this one too).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+import trimesh
+
+from po3d_ppl.world import ontology
+from po3d_ppl.world.sampler import ObjectSpec, canonical_bounds
+from po3d_ppl.world.scene import Camera
+
+#: Direction towards the key light (from the camera's front-left, high up) and the fill light (front-right).
+KEY_LIGHT = np.array([-0.2, -0.85, 0.75]) / np.linalg.norm([-0.2, -0.85, 0.75])
+FILL_LIGHT = np.array([0.76, 0.38, 0.6]) / np.linalg.norm([0.76, 0.38, 0.6])
+GROUND_ALBEDO = 0.32
+#: Offset (world units) that moves shadow-ray origins off the surface they start on.
+SHADOW_EPS = 2e-3
+
+#: Part id used in solo maps for pixels where the object is absent (``-1`` is the body, as in ``part_ids``).
+ABSENT = -2
+
+
+@dataclass(frozen=True)
+class PlacedMesh:
+    """One object's mesh in world coordinates with its per-face part ids (-1 = body)."""
+
+    mesh: trimesh.Trimesh
+    face_parts: np.ndarray
+    #: 4x4 object-to-world transform and the canonical mesh's bounds ``[[min xyz], [max xyz]]``.
+    transform: np.ndarray
+    bounds: np.ndarray
+
+    @property
+    def box_centre(self) -> np.ndarray:
+        """World position of the centre of the object's oriented bounding box (the ``3d_coords``)."""
+        centre = 0.5 * (self.bounds[0] + self.bounds[1])
+        return self.transform[:3, :3] @ centre + self.transform[:3, 3]
+
+
+def place_meshes(specs: list[ObjectSpec]) -> list[PlacedMesh]:
+    """Scale, rotate and move each subtype's canonical mesh into the world."""
+    from po3d_ppl.world.meshes import vehicle_mesh
+
+    placed = []
+    for spec in specs:
+        vm = vehicle_mesh(spec.subtype)
+        bounds = canonical_bounds(spec.subtype)
+        M = spec.transform(bounds)
+        vertices = np.asarray(vm.mesh.vertices, dtype=np.float64) @ M[:3, :3].T + M[:3, 3]
+        mesh = trimesh.Trimesh(vertices, np.asarray(vm.mesh.faces), process=False)
+        placed.append(PlacedMesh(mesh, np.asarray(vm.face_parts, dtype=np.int16), M, bounds))
+    return placed
+
+
+@dataclass
+class GBuffer:
+    """Primary-ray results. Flat arrays have one entry per pixel, row-major."""
+
+    width: int
+    height: int
+    origins: np.ndarray
+    dirs: np.ndarray
+    #: Object hit first (-1 none), its face, the ray distance (inf if none) and the hit's geometric normal.
+    geometry: np.ndarray
+    face: np.ndarray
+    distance: np.ndarray
+    normal: np.ndarray
+    part: np.ndarray
+    #: The caster over all objects, reused for shadow rays and (as subsets) for solo footprints.
+    caster: object = None
+
+    @property
+    def object_ids(self) -> np.ndarray:
+        return self.geometry.reshape(self.height, self.width).astype(np.int16)
+
+    @property
+    def part_ids(self) -> np.ndarray:
+        return self.part.reshape(self.height, self.width)
+
+    def pixel_counts(self, n_objects: int) -> np.ndarray:
+        return np.bincount(self.geometry[self.geometry >= 0], minlength=n_objects)[:n_objects]
+
+
+def cast_primary(meshes: list[PlacedMesh], camera: Camera) -> GBuffer:
+    """Cast one ray per pixel centre against all objects."""
+    from po3d_ppl.world.raycast import RayCaster, camera_rays
+
+    origins, dirs = camera_rays(camera)
+    caster = RayCaster([m.mesh for m in meshes])
+    hits = caster.cast(origins, dirs)
+    geometry = np.asarray(hits.geometry, dtype=np.int32)
+    face = np.asarray(hits.face, dtype=np.int32)
+    part = np.full(geometry.shape, -1, dtype=np.int16)
+    for i, m in enumerate(meshes):
+        sel = geometry == i
+        part[sel] = m.face_parts[face[sel]]
+    return GBuffer(camera.width, camera.height, origins, dirs, geometry, face,
+                   np.asarray(hits.distance, dtype=np.float32), np.asarray(hits.normal, dtype=np.float32), part, caster)
+
+
+@dataclass(frozen=True)
+class SoloView:
+    """The object rendered alone, cropped to its projected box ``[y0:y0+h, x0:x0+w]``: part id per pixel,
+    :data:`ABSENT` where the object does not cover the pixel, -1 on its body."""
+
+    x0: int
+    y0: int
+    parts: np.ndarray
+
+    @property
+    def present(self) -> np.ndarray:
+        return self.parts != ABSENT
+
+
+def projected_box(mesh: trimesh.Trimesh, camera: Camera) -> tuple[int, int, int, int]:
+    """Pixel box ``(x0, y0, x1, y1)`` (exclusive ends, clipped to the image) that holds every pixel whose centre
+    can hit the mesh."""
+    uvz = camera.project(np.asarray(mesh.vertices))
+    if (uvz[:, 2] <= 0).any():  # part of the object behind the camera: the whole image is conservative
+        return 0, 0, camera.width, camera.height
+    x0 = int(np.clip(np.floor(uvz[:, 0].min()), 0, camera.width))
+    x1 = int(np.clip(np.ceil(uvz[:, 0].max()) + 1, 0, camera.width))
+    y0 = int(np.clip(np.floor(uvz[:, 1].min()), 0, camera.height))
+    y1 = int(np.clip(np.ceil(uvz[:, 1].max()) + 1, 0, camera.height))
+    return x0, y0, x1, y1
+
+
+def solo_views(gbuffer: GBuffer, meshes: list[PlacedMesh], camera: Camera) -> list[SoloView]:
+    """Each object's solo part map, re-casting only its box pixels that show another object."""
+    W = gbuffer.width
+    geometry = gbuffer.geometry.reshape(gbuffer.height, W)
+    part = gbuffer.part_ids
+    views = []
+    for i, m in enumerate(meshes):
+        x0, y0, x1, y1 = projected_box(m.mesh, camera)
+        geo = geometry[y0:y1, x0:x1]
+        parts = np.where(geo == i, part[y0:y1, x0:x1], np.int16(ABSENT)).astype(np.int16)
+        hidden = (geo >= 0) & (geo != i)
+        if hidden.any():
+            rows, cols = np.nonzero(hidden)
+            flat = (rows + y0) * W + (cols + x0)
+            hits = gbuffer.caster.subset([i]).cast(gbuffer.origins[flat], gbuffer.dirs[flat])
+            hit = np.asarray(hits.geometry) >= 0
+            parts[rows[hit], cols[hit]] = m.face_parts[np.asarray(hits.face)[hit]]
+        views.append(SoloView(x0, y0, parts))
+    return views
+
+
+@dataclass(frozen=True)
+class ObjectLook:
+    """Per-part appearance of one object: index ``part_id + 1`` (0 = body) into linear RGB albedo and a metal flag."""
+
+    albedo: np.ndarray
+    metal: np.ndarray
+
+
+def srgb_to_linear(c: np.ndarray) -> np.ndarray:
+    c = np.asarray(c, dtype=np.float32) / 255.0
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def linear_to_srgb8(c: np.ndarray) -> np.ndarray:
+    c = np.clip(c, 0.0, 1.0)
+    s = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+    return np.round(s * 255.0).astype(np.uint8)
+
+
+def object_look(spec: ObjectSpec, parts: dict[str, tuple[str, str]]) -> ObjectLook:
+    """Appearance table of an object whose recoloured ``parts`` map raw name -> (colour, material)."""
+    names = ontology.PARTS[spec.subtype]
+    albedo = np.tile(srgb_to_linear(ontology.COLOR_RGB[spec.color]), (len(names) + 1, 1))
+    metal = np.full(len(names) + 1, spec.material == "metal")
+    for raw, (color, material) in parts.items():
+        k = names.index(raw) + 1
+        albedo[k] = srgb_to_linear(ontology.COLOR_RGB[color])
+        metal[k] = material == "metal"
+    return ObjectLook(albedo.astype(np.float32), metal)
+
+
+def shadow_candidates(meshes: list[PlacedMesh], camera: Camera) -> np.ndarray:
+    """Boolean [H, W] mask of ground pixels that may lie in a key-light shadow (union of projected hulls of
+    each object's footprint and its shadow on the ground)."""
+    mask = np.zeros((camera.height, camera.width), dtype=np.uint8)
+    for m in meshes:
+        lo, hi = m.mesh.bounds
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        ground = corners - KEY_LIGHT[None, :] * (corners[:, 2:3] / KEY_LIGHT[2])
+        pts = np.concatenate([ground[:, :2], corners[:, :2]])
+        hull = cv2.convexHull(pts.astype(np.float32)).reshape(-1, 2)
+        uvz = camera.project(np.column_stack([hull, np.zeros(len(hull))]))
+        if (uvz[:, 2] <= 0).any():
+            return np.ones_like(mask, dtype=bool)
+        poly = np.round(uvz[:, :2] * 16).astype(np.int32)  # 4 fractional bits for sub-pixel accuracy
+        cv2.fillConvexPoly(mask, poly, 1, lineType=cv2.LINE_8, shift=4)
+    # Dilate by a pixel so pixel-centre rounding never drops a shadowed pixel.
+    return cv2.dilate(mask, np.ones((3, 3), np.uint8)).astype(bool)
+
+
+def _shadowed(caster, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    if len(points) == 0:
+        return np.zeros(0, dtype=bool)
+    origins = (points + SHADOW_EPS * (normals + KEY_LIGHT)).astype(np.float32)
+    dirs = np.broadcast_to(KEY_LIGHT.astype(np.float32), origins.shape)
+    hits = caster.cast(origins, np.ascontiguousarray(dirs))
+    return np.asarray(hits.geometry) >= 0
+
+
+def _environment(r: np.ndarray) -> np.ndarray:
+    """Radiance seen along reflected directions: a bright sky above the horizon, the dim ground below."""
+    up = np.clip(r[:, 2], -1.0, 1.0)
+    return np.where(up > 0, 0.35 + 0.6 * np.sqrt(np.clip(up, 0, 1)), GROUND_ALBEDO * 0.6).astype(np.float32)
+
+
+def shade(gbuffer: GBuffer, meshes: list[PlacedMesh], looks: list[ObjectLook], camera: Camera,
+          shadows: bool = True) -> np.ndarray:
+    """The RGB uint8 image."""
+    H, W = gbuffer.height, gbuffer.width
+    d = gbuffer.dirs.astype(np.float32)
+    o = gbuffer.origins.astype(np.float32)
+    radiance = np.zeros((H * W, 3), dtype=np.float32)
+    key, fill = KEY_LIGHT.astype(np.float32), FILL_LIGHT.astype(np.float32)
+
+    # Ground plane.
+    ground = (gbuffer.geometry < 0) & (d[:, 2] < 0)
+    t_ground = np.where(ground, -o[:, 2] / np.where(d[:, 2] < 0, d[:, 2], -1.0), np.inf)
+    lit_ground = np.ones(H * W, dtype=np.float32)
+    obj = gbuffer.geometry >= 0
+    obj_idx = np.flatnonzero(obj)
+    n = gbuffer.normal[obj_idx].astype(np.float32)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+    n *= np.where((n * d[obj_idx]).sum(axis=1, keepdims=True) > 0, -1.0, 1.0).astype(np.float32)
+    p = o[obj_idx] + d[obj_idx] * gbuffer.distance[obj_idx, None]
+    lit_obj = np.ones(len(obj_idx), dtype=np.float32)
+    if shadows and meshes:
+        cand = np.flatnonzero(ground & shadow_candidates(meshes, camera).ravel())
+        gp = o[cand] + d[cand] * t_ground[cand, None]
+        gn = np.broadcast_to(np.array([0, 0, 1], np.float32), gp.shape)
+        lit_ground[cand] = np.where(_shadowed(gbuffer.caster, gp, gn), 0.0, 1.0)
+        lit_obj = np.where(_shadowed(gbuffer.caster, p, n), 0.0, 1.0).astype(np.float32)
+
+    g = np.flatnonzero(ground)
+    gpos = o[g] + d[g] * t_ground[g, None]
+    # A soft fall-off towards the horizon, like CLEVR's curved backdrop.
+    fade = np.exp(-np.hypot(gpos[:, 0], gpos[:, 1]) / 40.0)
+    ground_rad = GROUND_ALBEDO * (0.45 + 0.75 * key[2] * lit_ground[g]) * (0.75 + 0.25 * fade)
+    radiance[g] = ground_rad[:, None]
+    # Rays that miss everything (above the horizon): a flat sky.
+    radiance[(~ground) & (~obj)] = 0.35
+
+    # Objects.
+    if len(obj_idx):
+        table_albedo = np.concatenate([lk.albedo for lk in looks])
+        table_metal = np.concatenate([lk.metal for lk in looks])
+        offsets = np.cumsum([0] + [len(lk.albedo) for lk in looks[:-1]])
+        row = offsets[gbuffer.geometry[obj_idx]] + gbuffer.part[obj_idx].astype(np.int64) + 1
+        albedo, metal = table_albedo[row], table_metal[row]
+        view = -d[obj_idx]
+        ndl = np.clip(n @ key, 0, 1) * lit_obj
+        ndf = np.clip(n @ fill, 0, 1)
+        half = key[None, :] + view
+        half /= np.linalg.norm(half, axis=1, keepdims=True)
+        ndh = np.clip((n * half).sum(axis=1), 0, 1)
+        refl = 2 * (n * view).sum(axis=1, keepdims=True) * n - view
+        rubber = albedo * (0.18 + 0.85 * ndl + 0.22 * ndf)[:, None] + (0.05 * ndh**12 * lit_obj)[:, None]
+        env = _environment(refl)
+        fresnel = 0.6 + 0.4 * (1 - np.clip((n * view).sum(axis=1), 0, 1)) ** 3
+        shiny = (albedo * (0.06 + 0.3 * ndl + 0.08 * ndf)[:, None]
+                 + albedo * (0.75 * env * fresnel)[:, None]
+                 + (1.4 * ndh**90 * lit_obj + 0.25 * ndh**12 * lit_obj)[:, None])
+        radiance[obj_idx] = np.where(metal[:, None], shiny, rubber)
+    return linear_to_srgb8(radiance.reshape(H, W, 3))
+
+
+def depth_map(gbuffer: GBuffer, camera: Camera) -> np.ndarray:
+    """Float32 [H, W] depth along the camera's viewing axis of the first surface (objects or ground); inf where a
+    ray hits nothing."""
+    d, o = gbuffer.dirs, gbuffer.origins
+    t = gbuffer.distance.astype(np.float64).copy()
+    ground = (gbuffer.geometry < 0) & (d[:, 2] < 0)
+    t[ground] = -o[ground, 2] / d[ground, 2]
+    t[(gbuffer.geometry < 0) & ~ground] = np.inf
+    forward = -camera.matrix_world[:3, 2]
+    return (t * (d @ forward)).astype(np.float32).reshape(gbuffer.height, gbuffer.width)
