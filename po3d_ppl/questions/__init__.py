@@ -1,0 +1,1 @@
+"""Questions: the reference executor, the templates, the question generator and the dataset builder."""

@@ -1,0 +1,80 @@
+"""The deterministic reference executor: runs a public program on a ground-truth scene.
+
+Programs are type-checked against the operation registry first (so an ill-formed program is an error that names
+its node, never a wrong answer), then run node by node with the reference semantics of
+:mod:`po3d_ppl.questions.reference`. Like the public ``answer_question`` it stops at the first invalid step and
+reports which node it was.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from po3d_ppl.questions import reference
+from po3d_ppl.questions.context import SceneContext
+from po3d_ppl.questions.program import ProgramNode, check_program, parse_program, to_public_output
+from po3d_ppl.questions.reference import InvalidStep
+from po3d_ppl.reasoning.registry import Operation
+from po3d_ppl.world.scene import Scene
+
+__all__ = ["ExecutionResult", "InvalidStep", "execute", "execute_nodes", "reference"]
+
+
+@dataclass(frozen=True)
+class ExecutionResult:
+    """Outputs of every node that ran; ``invalid_node`` is the first node without a valid result (or None)."""
+
+    outputs: tuple
+    types: tuple[str, ...]
+    invalid_node: int | None = None
+    reason: str | None = None
+
+    @property
+    def valid(self) -> bool:
+        return self.invalid_node is None
+
+    @property
+    def answer(self):
+        """The last node's value (None if the program is invalid)."""
+        return self.outputs[-1] if self.valid else None
+
+    @property
+    def answer_type(self) -> str:
+        return self.types[-1]
+
+    def public_outputs(self) -> list:
+        """Every node's output encoded like the public ``_output`` field."""
+        return [to_public_output(v, t) for v, t in zip(self.outputs, self.types, strict=False)]
+
+
+def _context(scene: Scene | SceneContext) -> SceneContext:
+    return scene if isinstance(scene, SceneContext) else SceneContext(scene)
+
+
+def execute_nodes(ctx: SceneContext, nodes: Sequence[ProgramNode], ops: Sequence[Operation]) -> ExecutionResult:
+    """Run already-checked nodes (``ops`` from :func:`check_program`)."""
+    outputs: list = []
+    types = tuple(op.output for op in ops)
+    for index, (node, op) in enumerate(zip(nodes, ops, strict=True)):
+        args = [outputs[i] for i in node.inputs] + list(node.value_inputs)
+        try:
+            outputs.append(op.reference_fn(ctx, *args))
+        except InvalidStep as exc:
+            return ExecutionResult(tuple(outputs), types, index, f"program[{index}] ({node.function}): {exc}")
+    return ExecutionResult(tuple(outputs), types)
+
+
+def execute(scene: Scene | SceneContext, program: object) -> ExecutionResult:
+    """Run a public program (list of nodes; ``_output`` is ignored) on a scene.
+
+    Raises :class:`~po3d_ppl.questions.program.ProgramError` / ``UnknownNameError`` for an ill-formed program and
+    ``SceneFormatError`` for a malformed scene; an invalid step is a result, not an error.
+    """
+    nodes = parse_program(program)
+    ops = check_program(nodes)
+    for index, op in enumerate(ops):
+        if op.reference_fn is None:
+            raise NotImplementedError(f"program[{index}]: operation {op.name}{op.signature} has no reference "
+                                      "semantics (register one with register_reference)")
+    return execute_nodes(_context(scene), nodes, ops)

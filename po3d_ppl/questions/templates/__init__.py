@@ -1,0 +1,1 @@
+"""Question templates in the public JSON format (package data; see docs/questions.md)."""
