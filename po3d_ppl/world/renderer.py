@@ -45,6 +45,8 @@ class PlacedMesh:
 
     mesh: trimesh.Trimesh
     face_parts: np.ndarray
+    #: Per-face surface kind (index into ``meshes.FINISHES``), used to shade unlabelled glass, tyres, chrome.
+    face_finish: np.ndarray
     #: 4x4 object-to-world transform and the canonical mesh's bounds ``[[min xyz], [max xyz]]``.
     transform: np.ndarray
     bounds: np.ndarray
@@ -67,7 +69,8 @@ def place_meshes(specs: list[ObjectSpec]) -> list[PlacedMesh]:
         M = spec.transform(bounds)
         vertices = np.asarray(vm.mesh.vertices, dtype=np.float64) @ M[:3, :3].T + M[:3, 3]
         mesh = trimesh.Trimesh(vertices, np.asarray(vm.mesh.faces), process=False)
-        placed.append(PlacedMesh(mesh, np.asarray(vm.face_parts, dtype=np.int16), M, bounds))
+        placed.append(PlacedMesh(mesh, np.asarray(vm.face_parts, dtype=np.int16),
+                                 np.asarray(vm.face_finish, dtype=np.int8), M, bounds))
     return placed
 
 
@@ -165,12 +168,19 @@ def solo_views(gbuffer: GBuffer, meshes: list[PlacedMesh], camera: Camera) -> li
     return views
 
 
+#: Shading models of a surface row.
+RUBBER, METAL, GLASS, LAMP = 0, 1, 2, 3
+
+
 @dataclass(frozen=True)
 class ObjectLook:
-    """Per-part appearance of one object: index ``part_id + 1`` (0 = body) into linear RGB albedo and a metal flag."""
+    """Appearance table of one object. Row ``k`` < ``n_finishes`` is unlabelled geometry of finish ``k`` (paint,
+    glass, rubber, chrome, lamp); row ``n_finishes + p`` is part ``p``. Each row has a linear RGB albedo and a
+    shading model (RUBBER, METAL, GLASS, LAMP)."""
 
     albedo: np.ndarray
-    metal: np.ndarray
+    model: np.ndarray
+    n_finishes: int
 
 
 def srgb_to_linear(c: np.ndarray) -> np.ndarray:
@@ -184,16 +194,28 @@ def linear_to_srgb8(c: np.ndarray) -> np.ndarray:
     return np.round(s * 255.0).astype(np.uint8)
 
 
+#: Unlabelled non-paint finishes (fixed looks, so windows, tyres and lamps read as such whatever the colour).
+_FINISH_LOOKS = {
+    "glass": ((0.015, 0.02, 0.03), GLASS),
+    "rubber": ((0.02, 0.02, 0.02), RUBBER),
+    "chrome": ((0.55, 0.55, 0.57), METAL),
+    "lamp": ((0.85, 0.8, 0.55), LAMP),
+}
+
+
 def object_look(spec: ObjectSpec, parts: dict[str, tuple[str, str]]) -> ObjectLook:
-    """Appearance table of an object whose recoloured ``parts`` map raw name -> (colour, material)."""
+    """Appearance of an object whose recoloured ``parts`` map raw name -> (colour, material). Painted body and
+    every part take the object's colour and material unless recoloured, as in Super-CLEVR."""
+    from po3d_ppl.world.meshes import FINISHES
+
     names = ontology.PARTS[spec.subtype]
-    albedo = np.tile(srgb_to_linear(ontology.COLOR_RGB[spec.color]), (len(names) + 1, 1))
-    metal = np.full(len(names) + 1, spec.material == "metal")
+    own = (srgb_to_linear(ontology.COLOR_RGB[spec.color]), METAL if spec.material == "metal" else RUBBER)
+    rows = [_FINISH_LOOKS.get(f, own) for f in FINISHES] + [own] * len(names)
     for raw, (color, material) in parts.items():
-        k = names.index(raw) + 1
-        albedo[k] = srgb_to_linear(ontology.COLOR_RGB[color])
-        metal[k] = material == "metal"
-    return ObjectLook(albedo.astype(np.float32), metal)
+        rows[len(FINISHES) + names.index(raw)] = (srgb_to_linear(ontology.COLOR_RGB[color]),
+                                                  METAL if material == "metal" else RUBBER)
+    albedo = np.array([np.asarray(a, dtype=np.float32) for a, _ in rows], dtype=np.float32)
+    return ObjectLook(albedo, np.array([m for _, m in rows], dtype=np.int8), len(FINISHES))
 
 
 def shadow_candidates(meshes: list[PlacedMesh], camera: Camera) -> np.ndarray:
@@ -237,7 +259,7 @@ def shade(gbuffer: GBuffer, meshes: list[PlacedMesh], looks: list[ObjectLook], c
     d = gbuffer.dirs.astype(np.float32)
     o = gbuffer.origins.astype(np.float32)
     radiance = np.zeros((H * W, 3), dtype=np.float32)
-    key, fill = KEY_LIGHT.astype(np.float32), FILL_LIGHT.astype(np.float32)
+    key = KEY_LIGHT.astype(np.float32)
 
     # Ground plane.
     ground = (gbuffer.geometry < 0) & (d[:, 2] < 0)
@@ -268,26 +290,45 @@ def shade(gbuffer: GBuffer, meshes: list[PlacedMesh], looks: list[ObjectLook], c
 
     # Objects.
     if len(obj_idx):
-        table_albedo = np.concatenate([lk.albedo for lk in looks])
-        table_metal = np.concatenate([lk.metal for lk in looks])
-        offsets = np.cumsum([0] + [len(lk.albedo) for lk in looks[:-1]])
-        row = offsets[gbuffer.geometry[obj_idx]] + gbuffer.part[obj_idx].astype(np.int64) + 1
-        albedo, metal = table_albedo[row], table_metal[row]
-        view = -d[obj_idx]
-        ndl = np.clip(n @ key, 0, 1) * lit_obj
-        ndf = np.clip(n @ fill, 0, 1)
-        half = key[None, :] + view
-        half /= np.linalg.norm(half, axis=1, keepdims=True)
-        ndh = np.clip((n * half).sum(axis=1), 0, 1)
-        refl = 2 * (n * view).sum(axis=1, keepdims=True) * n - view
-        rubber = albedo * (0.18 + 0.85 * ndl + 0.22 * ndf)[:, None] + (0.05 * ndh**12 * lit_obj)[:, None]
-        env = _environment(refl)
-        fresnel = 0.6 + 0.4 * (1 - np.clip((n * view).sum(axis=1), 0, 1)) ** 3
-        shiny = (albedo * (0.06 + 0.3 * ndl + 0.08 * ndf)[:, None]
-                 + albedo * (0.75 * env * fresnel)[:, None]
-                 + (1.4 * ndh**90 * lit_obj + 0.25 * ndh**12 * lit_obj)[:, None])
-        radiance[obj_idx] = np.where(metal[:, None], shiny, rubber)
+        radiance[obj_idx] = _shade_objects(gbuffer, meshes, looks, obj_idx, n, d[obj_idx], lit_obj)
     return linear_to_srgb8(radiance.reshape(H, W, 3))
+
+
+def _shade_objects(gbuffer: GBuffer, meshes: list[PlacedMesh], looks: list[ObjectLook], obj_idx: np.ndarray,
+                   n: np.ndarray, d: np.ndarray, lit: np.ndarray) -> np.ndarray:
+    """Radiance of object pixels: look up each pixel's appearance row, then apply its shading model."""
+    geo, part, face = gbuffer.geometry[obj_idx], gbuffer.part[obj_idx].astype(np.int64), gbuffer.face[obj_idx]
+    finish = np.zeros(len(obj_idx), dtype=np.int64)
+    for i, m in enumerate(meshes):
+        sel = geo == i
+        finish[sel] = m.face_finish[face[sel]]
+    offsets = np.cumsum([0] + [len(lk.albedo) for lk in looks[:-1]])
+    n_finishes = np.array([lk.n_finishes for lk in looks])[geo]
+    row = offsets[geo] + np.where(part >= 0, n_finishes + part, finish)
+    albedo = np.concatenate([lk.albedo for lk in looks])[row]
+    model = np.concatenate([lk.model for lk in looks])[row]
+
+    key, fill = KEY_LIGHT.astype(np.float32), FILL_LIGHT.astype(np.float32)
+    view = -d
+    ndl = np.clip(n @ key, 0, 1) * lit
+    ndf = np.clip(n @ fill, 0, 1)
+    half = key[None, :] + view
+    half /= np.linalg.norm(half, axis=1, keepdims=True)
+    ndh = np.clip((n * half).sum(axis=1), 0, 1)
+    ndv = np.clip((n * view).sum(axis=1), 0, 1)
+    env = _environment(2 * ndv[:, None] * n - view)
+    fresnel = 0.6 + 0.4 * (1 - ndv) ** 3
+    highlight = (1.4 * ndh**90 + 0.25 * ndh**12) * lit
+
+    out = albedo * (0.18 + 0.85 * ndl + 0.22 * ndf)[:, None] + (0.05 * ndh**12 * lit)[:, None]  # rubber
+    metal = model == METAL
+    out[metal] = (albedo[metal] * (0.06 + 0.3 * ndl[metal] + 0.08 * ndf[metal])[:, None]
+                  + albedo[metal] * (0.75 * env[metal] * fresnel[metal])[:, None] + highlight[metal, None])
+    glass = model == GLASS
+    out[glass] = albedo[glass] + (0.25 * env[glass] * (0.3 + fresnel[glass]) + highlight[glass])[:, None]
+    lamp = model == LAMP
+    out[lamp] = albedo[lamp] * (0.7 + 0.3 * ndl[lamp])[:, None]
+    return out
 
 
 def depth_map(gbuffer: GBuffer, camera: Camera) -> np.ndarray:
@@ -300,3 +341,27 @@ def depth_map(gbuffer: GBuffer, camera: Camera) -> np.ndarray:
     t[(gbuffer.geometry < 0) & ~ground] = np.inf
     forward = -camera.matrix_world[:3, 2]
     return (t * (d @ forward)).astype(np.float32).reshape(gbuffer.height, gbuffer.width)
+
+
+def false_colour_masks(object_ids: np.ndarray, part_ids: np.ndarray) -> np.ndarray:
+    """RGB uint8 visualisation of the id maps: one hue per object, a lighter or darker shade per part, black part
+    and object boundaries, dark grey background."""
+    n = int(object_ids.max()) + 1 if object_ids.size else 0
+    hues = (np.arange(max(n, 1)) * 0.618034) % 1.0
+    hsv = np.zeros((max(n, 1), 1, 3), dtype=np.float32)
+    hsv[:, 0, 0], hsv[:, 0, 1], hsv[:, 0, 2] = hues * 360.0, 0.75, 0.95
+    base = cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB)[:, 0, :]
+    out = np.full(object_ids.shape + (3,), 40, dtype=np.uint8)
+    obj = object_ids >= 0
+    # Parts: shade factor cycles through 5 levels; the body (-1) keeps the base colour at reduced saturation.
+    shade_levels = np.array([1.0, 0.55, 0.8, 0.4, 0.68], dtype=np.float32)
+    factor = np.where(part_ids >= 0, shade_levels[np.maximum(part_ids, 0) % 5], 0.9)
+    colour = base[np.maximum(object_ids, 0)] * factor[..., None]
+    colour = np.where((part_ids < 0)[..., None] & obj[..., None], 0.5 * colour + 0.5 * 0.85, colour)
+    out[obj] = np.round(np.clip(colour[obj], 0, 1) * 255).astype(np.uint8)
+    key = (object_ids.astype(np.int32) + 1) * 64 + (part_ids.astype(np.int32) + 1)
+    edge = np.zeros(object_ids.shape, dtype=bool)
+    edge[:, 1:] |= key[:, 1:] != key[:, :-1]
+    edge[1:, :] |= key[1:, :] != key[:-1, :]
+    out[edge & (obj | np.roll(obj, 1, axis=1) | np.roll(obj, 1, axis=0))] = 0
+    return out

@@ -503,9 +503,9 @@ def load_scenes(path: str | os.PathLike) -> list[Scene]:
         if not isinstance(data["scenes"], list):
             raise SceneFormatError(f"{path}: scenes: expected a list")
         return [scene_from_public(s, f"{path}: scenes[{i}]") for i, s in enumerate(data["scenes"])]
-    if isinstance(data, Mapping) and "objects" in data:
+    if isinstance(data, Mapping):
         return [scene_from_public(data, str(path))]
-    raise SceneFormatError(f"{path}: neither a scene (no 'objects') nor a scene list (no 'scenes')")
+    raise SceneFormatError(f"{path}: expected a scene or a {{info, scenes}} object, got a {type(data).__name__}")
 
 
 def load_scene(path: str | os.PathLike) -> Scene:
