@@ -48,6 +48,9 @@ RELATIONAL = frozenset({
     "relate_occluding_part", "filter_occluder",
 })
 _SET_TYPES = {"ObjectSet": "Object", "PartSet": "Part"}
+#: Values a count/exist filter may name although the scene has none of them.
+_OBJECT_VOCABULARY = {"Pose": ontology.POSE_LABELS, "Size": ontology.SIZES, "Color": ontology.COLORS,
+                      "Material": ontology.MATERIALS, "Shape": ontology.SHAPE_VALUES}
 #: How many different answers an output type can have, when that is fewer than the candidates asked for.
 _SMALL_SUPPORT = {"Bool": 2, "Material": len(ontology.MATERIALS), "Size": len(ontology.SIZES),
                   "Direction": len(ontology.POSES)}
@@ -79,6 +82,15 @@ class Candidate:
     def to_public(self) -> dict:
         return {"question": self.question, "program": [dict(n) for n in self.program], "answer": self.answer,
                 "template_filename": self.template_filename, "question_family_index": self.question_family_index}
+
+    def to_record(self) -> dict:
+        """A JSON record that :meth:`from_record` restores exactly (used for a build's work files)."""
+        return {**self.to_public(), "answer_type": self.answer_type}
+
+    @classmethod
+    def from_record(cls, record: dict) -> Candidate:
+        return cls(record["template_filename"], record["question_family_index"], record["question"],
+                   tuple(record["program"]), record["answer"], record["answer_type"])
 
 
 @dataclass(frozen=True)
@@ -186,6 +198,7 @@ class SceneQuestionGenerator:
         scene_keys = index.keys(step.part_level, step.slots, step.forced_null)
         if step.aggregate in ("count", "exist"):
             outs = {k: den & within for k, den in scene_keys.items()}
+            outs.update(self._empty_keys(step, outs))
         else:
             outs = index.keys(step.part_level, step.slots, step.forced_null, within)
         check_scene = relational and step.aggregate in (None, "unique")
@@ -210,6 +223,25 @@ class SceneQuestionGenerator:
                 minimal.append((key, out))
         found = self._options[cache_key] = (tuple(minimal), tuple(redundant))
         return found
+
+    def _empty_keys(self, step: _FilterStep, outs: dict[Key, int]) -> dict[Key, int]:
+        """Keys of at most two slots that select nothing, made by adding one slot to a key that selects something
+        (``red bus`` when there are red things and buses but no red bus), so count/exist questions also get the
+        answers 0 / no. Object slots range over the whole vocabulary, part slots over the scene's values."""
+        vocab = [self.index.values(step.part_level, slot) for slot in step.slots]
+        if not step.part_level:
+            vocab = [{v: vals.get(v, 0) for v in _OBJECT_VOCABULARY[slot]} for slot, vals in zip(step.slots, vocab)]
+        found: dict[Key, int] = {}
+        for key, out in outs.items():
+            if not out or sum(v is not None for v in key) > 1:
+                continue
+            for s, v in enumerate(key):
+                if v is not None or step.forced_null[s]:
+                    continue
+                for value, vmask in vocab[s].items():
+                    if out & vmask == 0:
+                        found[key[:s] + (value,) + key[s + 1:]] = 0
+        return {k: v for k, v in found.items() if k not in outs}
 
     def shared_value(self, part_level: bool, slot: str, out: int) -> str | None:
         """The value of ``slot`` that every member of ``out`` has, if any (for r < 0 redundant filters)."""
@@ -366,7 +398,7 @@ class _Search:
             for s, v in enumerate(key):
                 if v is None:
                     continue
-                mask &= values[s][v]
+                mask &= values[s].get(v, 0)
                 # intermediate sets stay masks until the question is emitted (see _emit)
                 self._push(step.emits[s], [prev], [v], _Mask(mask, step.part_level), set_type)
                 prev = len(self.nodes) - 1

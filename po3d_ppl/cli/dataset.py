@@ -1,0 +1,56 @@
+"""``po3d dataset build|stats``: build a Super-CLEVR-3D-style dataset and inspect its question files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+dataset_app = typer.Typer(help="Build datasets of rendered scenes with questions, and inspect them.",
+                          no_args_is_help=True)
+
+
+@dataset_app.command("build")
+def build(
+    out: Path = typer.Option(..., "--out", help="Output directory (re-running the same command resumes it)."),
+    scenes: int = typer.Option(..., "--scenes", help="Number of scenes to render."),
+    seed: int = typer.Option(0, "--seed", help="Dataset seed; scene i derives its seed from (seed, i)."),
+    workers: int = typer.Option(1, "--workers", help="Worker processes."),
+    width: int = typer.Option(640, "--width", help="Image width in pixels."),
+    height: int = typer.Option(480, "--height", help="Image height in pixels."),
+    height_depth: bool = typer.Option(False, "--height-depth",
+                                      help="Elevate aeroplanes and add height/depth questions."),
+) -> None:
+    """Render scenes, generate balanced questions and write images, scenes.json, questions/, splits, manifest."""
+    from rich.console import Console
+
+    from po3d_ppl.questions.dataset import BuildConfig, build_dataset
+
+    config = BuildConfig(scenes=scenes, seed=seed, width=width, height=height, height_depth=height_depth)
+    report = build_dataset(out, config, workers=workers, progress=True)
+    counts = report.manifest["counts"]["questions"]
+    Console().print(f"{out}: {config.scenes} scenes ({report.built} built, {report.skipped} already done), "
+                    + ", ".join(f"{n} {name}" for name, n in counts.items()) + " questions")
+
+
+@dataset_app.command("stats")
+def stats(directory: Path = typer.Argument(..., help="A built dataset directory.")) -> None:
+    """Per-family question counts, answer entropy and top-answer share."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from po3d_ppl.questions.dataset import load_dataset
+    from po3d_ppl.questions.stats import family_stats
+
+    data = load_dataset(directory)
+    table = Table(title=f"{directory}: {len(data.public_scenes)} scenes")
+    for col in ("set", "template", "family", "questions", "answers", "entropy (bits)", "top answer", "top share"):
+        table.add_column(col, justify="right" if col not in ("set", "template", "top answer") else "left")
+    for row in family_stats(data.questions):
+        table.add_row(row.question_set, row.template_filename, str(row.family), str(row.count),
+                      str(row.distinct_answers), f"{row.entropy_bits:.2f}", row.top_answer, f"{row.top_share:.0%}")
+    Console().print(table)
+
+
+def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:
+    app.add_typer(dataset_app, name="dataset")

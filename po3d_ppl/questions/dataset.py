@@ -1,0 +1,405 @@
+"""Dataset builder and loader: rendered scenes, public scene and question files, splits and a manifest.
+
+Layout of a build directory::
+
+    images/superCLEVR_new_%06d.png      rendered images
+    scenes.json                         {"info", "scenes"} in the public layout (scene_to_public)
+    questions/<set>.json                {"info", "questions"}: parts, pose, occlusion, obj_occlusion, core
+                                        (+ height_depth with --height-depth)
+    splits.json                         {"train": [...], "val": [...], "test": [...]} image indices
+    manifest.json                       version, seed, config, counts
+    work/scene_%06d.json.gz             per-scene intermediate: public scene + candidate questions
+
+Design:
+- Scene i is generated from ``SeedSequence([seed, i])``, independently of every other scene, by any worker.
+  Its work file is the completion marker, written last and atomically, so a killed build resumes where it
+  stopped and never reads a half-written file.
+- Answers are balanced across the whole build (:mod:`po3d_ppl.questions.balance`), which needs scenes in order:
+  workers only produce candidates; the final files are assembled sequentially from the work files (cheap), so
+  the output is byte-identical whatever the number of workers or interruptions.
+- Every file is written to a temporary name and moved into place with ``os.replace``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import gzip
+import json
+import math
+import os
+import time
+from collections import Counter
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from multiprocessing import get_context
+from pathlib import Path
+
+import numpy as np
+
+import po3d_ppl
+from po3d_ppl.errors import InputError
+from po3d_ppl.questions.balance import AnswerBalancer
+from po3d_ppl.questions.generator import Candidate
+from po3d_ppl.questions.question_sets import question_sets
+from po3d_ppl.questions.scene_questions import families_of, public_question, scene_candidates, select_for_scene
+
+FORMAT_VERSION = 1
+SPLITS = ("train", "val", "test")
+#: The real dataset's 20k / 5k / 5k proportions.
+DEFAULT_SPLIT_FRACTIONS = (4 / 6, 1 / 6, 1 / 6)
+IMAGE_PATTERN = "superCLEVR_new_{:06d}.png"
+_LICENSE = "Creative Commons Attribution (CC-BY 4.0)"
+
+
+@dataclass(frozen=True)
+class BuildConfig:
+    """Everything that determines a build's content (the worker count does not)."""
+
+    scenes: int
+    seed: int = 0
+    width: int = 640
+    height: int = 480
+    height_depth: bool = False
+    split_fractions: tuple[float, float, float] = DEFAULT_SPLIT_FRACTIONS
+    redundancy: float = 1.0
+    min_objects: int = 3
+    max_objects: int = 10
+
+    def __post_init__(self) -> None:
+        def need(ok: bool, name: str, msg: str) -> None:
+            if not ok:
+                raise InputError(name, f"{msg}, got {getattr(self, name)!r}")
+
+        for name in ("scenes", "seed", "width", "height", "min_objects", "max_objects"):
+            value = getattr(self, name)
+            need(isinstance(value, int) and not isinstance(value, bool), name, "must be an integer")
+        need(self.scenes >= 1, "scenes", "must be at least 1")
+        need(self.seed >= 0, "seed", "must be a non-negative integer")
+        need(self.width >= 16 and self.height >= 16, "width", "image sides must be at least 16 pixels")
+        need(len(self.split_fractions) == 3 and all(f >= 0 for f in self.split_fractions)
+             and math.isclose(sum(self.split_fractions), 1.0, abs_tol=1e-6), "split_fractions",
+             "must be three non-negative fractions (train, val, test) summing to 1")
+        need(-1.0 <= self.redundancy <= 1.0, "redundancy", "must be in [-1, 1]")
+
+    def scene_config(self):
+        from po3d_ppl.world.sampler import SceneConfig
+
+        return SceneConfig(min_objects=self.min_objects, max_objects=self.max_objects, width=self.width,
+                           height=self.height, elevated_aeroplanes=self.height_depth)
+
+    def to_json(self) -> dict:
+        return {**dataclasses.asdict(self), "split_fractions": list(self.split_fractions)}
+
+    @classmethod
+    def from_json(cls, data: dict) -> BuildConfig:
+        return cls(**{**data, "split_fractions": tuple(data["split_fractions"])})
+
+
+def split_sizes(n: int, fractions: Sequence[float]) -> tuple[int, int, int]:
+    train = round(n * fractions[0])
+    val = min(n - train, round(n * fractions[1]))
+    return train, val, n - train - val
+
+
+def split_of(index: int, n: int, fractions: Sequence[float]) -> str:
+    """Contiguous splits: the first ~2/3 of the indices train, then val, then test."""
+    train, val, _ = split_sizes(n, fractions)
+    return "train" if index < train else "val" if index < train + val else "test"
+
+
+def scene_seeds(seed: int, index: int) -> tuple[int, int]:
+    """(render seed, question seed) of scene ``index``, from ``SeedSequence([seed, index])``."""
+    state = np.random.SeedSequence([seed, index]).generate_state(2)
+    return int(state[0]), int(state[1])
+
+
+# ---- atomic files ---------------------------------------------------------------------------------------------
+def _temp_path(path: Path) -> Path:
+    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` so that readers see the old file or the whole new one, never a part."""
+    tmp = _temp_path(path)
+    with open(tmp, "wb") as f:
+        f.write(data)
+    os.replace(tmp, path)
+
+
+def _dumps(data: object) -> str:
+    return json.dumps(data, allow_nan=False)
+
+
+class _JsonListFile:
+    """Streams ``{"info": ..., "<key>": [items...]}`` to a temporary file; :meth:`commit` moves it into place."""
+
+    def __init__(self, path: Path, info: dict, key: str):
+        self.path, self.tmp = path, _temp_path(path)
+        self.f = open(self.tmp, "w", encoding="utf-8")
+        self.f.write('{"info": ' + _dumps(info) + ', "' + key + '": [')
+        self.count = 0
+
+    def add(self, item: object) -> None:
+        self.f.write(("\n" if self.count == 0 else ",\n") + _dumps(item))
+        self.count += 1
+
+    def commit(self) -> None:
+        self.f.write("\n]}\n")
+        self.f.close()
+        os.replace(self.tmp, self.path)
+
+    def abort(self) -> None:
+        self.f.close()
+        self.tmp.unlink(missing_ok=True)
+
+
+# ---- per-scene work ---------------------------------------------------------------------------------------------
+def work_path(root: Path, index: int) -> Path:
+    return root / "work" / f"scene_{index:06d}.json.gz"
+
+
+def image_path(root: Path, index: int) -> Path:
+    return root / "images" / IMAGE_PATTERN.format(index)
+
+
+def _scene_done(root: Path, index: int) -> bool:
+    return work_path(root, index).is_file() and image_path(root, index).is_file()
+
+
+@dataclass
+class SceneTiming:
+    render_s: float
+    questions_s: float
+    questions: int
+
+
+def build_scene(root: Path, config: BuildConfig, index: int) -> SceneTiming:
+    """Render scene ``index``, generate its candidate questions and write its image and work file."""
+    import cv2
+
+    from po3d_ppl.world.generate import generate_scene
+    from po3d_ppl.world.scene_io import scene_to_public
+
+    render_seed, question_seed = scene_seeds(config.seed, index)
+    start = time.perf_counter()
+    rendered = generate_scene(render_seed, config.scene_config(), image_index=index)
+    scene = dataclasses.replace(rendered.scene, image_index=index, image_filename=IMAGE_PATTERN.format(index),
+                                split=split_of(index, config.scenes, config.split_fractions))
+    ok, png = cv2.imencode(".png", cv2.cvtColor(rendered.image, cv2.COLOR_RGB2BGR))
+    if not ok:
+        raise RuntimeError(f"scene {index}: PNG encoding failed")
+    atomic_write_bytes(image_path(root, index), png.tobytes())
+    rendered_at = time.perf_counter()
+    sets = question_sets(config.height_depth).values()
+    found = scene_candidates(scene, question_seed, families_of(sets), redundancy=config.redundancy)
+    record = {"scene": scene_to_public(scene),
+              "candidates": [[f, i, [c.to_record() for c in cands]] for (f, i), cands in found.items()]}
+    done = time.perf_counter()
+    atomic_write_bytes(work_path(root, index), gzip.compress(_dumps(record).encode(), mtime=0))
+    return SceneTiming(rendered_at - start, done - rendered_at, sum(len(c) for c in found.values()))
+
+
+def _build_scene_task(root: str, config: dict, index: int) -> tuple[int, SceneTiming]:
+    return index, build_scene(Path(root), BuildConfig.from_json(config), index)
+
+
+def _read_work(root: Path, index: int) -> dict:
+    return json.loads(gzip.decompress(work_path(root, index).read_bytes()))
+
+
+# ---- assembly -----------------------------------------------------------------------------------------------------
+def _assemble(root: Path, config: BuildConfig) -> dict:
+    """Write scenes.json, questions/*.json, splits.json and manifest.json from the work files, in scene order."""
+    sets = question_sets(config.height_depth)
+    balancer = AnswerBalancer()
+    rng = np.random.default_rng(np.random.SeedSequence([config.seed], spawn_key=(7,)))
+    (root / "questions").mkdir(exist_ok=True)
+    scenes_file = _JsonListFile(root / "scenes.json", {"date": "", "version": "1.0", "split": "all",
+                                                       "license": _LICENSE}, "scenes")
+    question_files = {name: _JsonListFile(root / "questions" / f"{name}.json",
+                                          {"date": "", "version": "1.0", "split": "all", "license": _LICENSE,
+                                           "question_set": name}, "questions") for name in sets}
+    family_counts = {name: Counter() for name in sets}
+    try:
+        for index in range(config.scenes):
+            work = _read_work(root, index)
+            scene = work["scene"]
+            scenes_file.add(scene)
+            candidates = {(f, i): [Candidate.from_record(r) for r in recs] for f, i, recs in work["candidates"]}
+            for name, chosen in select_for_scene(candidates, sets.values(), balancer, rng).items():
+                out = question_files[name]
+                for cand in chosen:
+                    out.add(public_question(cand, scene["image_index"], scene["image_filename"], scene["split"],
+                                            out.count))
+                    family_counts[name][f"{cand.template_filename}:{cand.question_family_index}"] += 1
+    except BaseException:
+        for f in (scenes_file, *question_files.values()):
+            f.abort()
+        raise
+    for f in (scenes_file, *question_files.values()):
+        f.commit()
+    sizes = split_sizes(config.scenes, config.split_fractions)
+    bounds = np.cumsum((0,) + sizes)
+    splits = {name: list(range(int(bounds[k]), int(bounds[k + 1]))) for k, name in enumerate(SPLITS)}
+    atomic_write_bytes(root / "splits.json", (_dumps(splits) + "\n").encode())
+    manifest = {
+        "name": "po3d_ppl Super-CLEVR-3D-style dataset", "format": FORMAT_VERSION,
+        "po3d_ppl_version": po3d_ppl.__version__, "seed": config.seed, "config": config.to_json(),
+        "counts": {"scenes": config.scenes, "splits": {k: len(v) for k, v in splits.items()},
+                   "questions": {name: f.count for name, f in question_files.items()},
+                   "families": {name: dict(sorted(c.items())) for name, c in family_counts.items()}},
+        "question_sets": {name: {"families": [f"{f}:{i}" for f, i in s.families], "per_scene": s.per_scene}
+                          for name, s in sets.items()},
+    }
+    atomic_write_bytes(root / "manifest.json", (json.dumps(manifest, indent=1) + "\n").encode())
+    return manifest
+
+
+# ---- build --------------------------------------------------------------------------------------------------------
+@dataclass
+class BuildReport:
+    manifest: dict
+    built: int
+    skipped: int
+    timings: list[SceneTiming] = field(default_factory=list)
+    assemble_s: float = 0.0
+    wall_s: float = 0.0
+
+
+def _check_config(root: Path, config: BuildConfig) -> None:
+    path = root / "build_config.json"
+    if path.is_file():
+        existing = json.loads(path.read_text())
+        if existing != config.to_json():
+            diff = sorted(k for k in config.to_json() if existing.get(k) != config.to_json()[k])
+            raise InputError("out", f"{root} holds a build with different settings ({', '.join(diff)}); use another "
+                                    "directory or the same settings to resume it")
+    else:
+        atomic_write_bytes(path, (json.dumps(config.to_json(), indent=1) + "\n").encode())
+
+
+def _clean_temporaries(root: Path) -> None:
+    for folder in (root, root / "work", root / "images", root / "questions"):
+        if folder.is_dir():
+            for tmp in folder.glob(".*.tmp"):
+                tmp.unlink(missing_ok=True)
+
+
+def build_dataset(out: str | os.PathLike, config: BuildConfig, *, workers: int = 1,
+                  progress: Callable[[int, int], None] | bool = False) -> BuildReport:
+    """Build (or resume) a dataset in ``out``. ``progress`` is True for a rich progress bar, or a callback
+    ``(done, total)``."""
+    if not isinstance(workers, int) or workers < 1:
+        raise InputError("workers", f"must be a positive integer, got {workers!r}")
+    root = Path(out)
+    if root.exists() and not root.is_dir():
+        raise InputError("out", f"{root} exists and is not a directory")
+    for sub in ("images", "work", "questions"):
+        (root / sub).mkdir(parents=True, exist_ok=True)
+    _check_config(root, config)
+    _clean_temporaries(root)
+    start = time.perf_counter()
+    pending = [i for i in range(config.scenes) if not _scene_done(root, i)]
+    report = BuildReport({}, built=len(pending), skipped=config.scenes - len(pending))
+    for timing in _run(root, config, pending, workers, progress):
+        report.timings.append(timing)
+    assembled = time.perf_counter()
+    report.manifest = _assemble(root, config)
+    report.assemble_s = time.perf_counter() - assembled
+    report.wall_s = time.perf_counter() - start
+    return report
+
+
+def _run(root: Path, config: BuildConfig, pending: list[int], workers: int,
+         progress: Callable[[int, int], None] | bool) -> Iterator[SceneTiming]:
+    total = len(pending)
+    bar = None
+    if progress is True:
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
+
+        bar = Progress("[progress.description]{task.description}", BarColumn(), MofNCompleteColumn(),
+                       TimeRemainingColumn())
+        task = bar.add_task("scenes", total=total)
+        bar.start()
+
+    def tick(done: int) -> None:
+        if bar is not None:
+            bar.update(task, completed=done)
+        elif callable(progress):
+            progress(done, total)
+
+    try:
+        if workers == 1 or total <= 1:
+            for k, index in enumerate(pending):
+                yield build_scene(root, config, index)
+                tick(k + 1)
+            return
+        payload = config.to_json()
+        with ProcessPoolExecutor(max_workers=min(workers, total), mp_context=get_context("spawn")) as pool:
+            futures = [pool.submit(_build_scene_task, str(root), payload, i) for i in pending]
+            for k, future in enumerate(as_completed(futures)):
+                yield future.result()[1]
+                tick(k + 1)
+    finally:
+        if bar is not None:
+            bar.stop()
+
+
+# ---- loading ------------------------------------------------------------------------------------------------------
+@dataclass
+class DatasetSplit:
+    name: str
+    #: scenes of the split, in image-index order
+    scenes: list
+    #: question set name -> questions of the split's images
+    questions: dict[str, list[dict]]
+
+
+@dataclass
+class Dataset:
+    """A built dataset: manifest, splits, public scene dicts and questions (parsed into Scenes on demand)."""
+
+    root: Path
+    manifest: dict
+    splits: dict[str, list[int]]
+    public_scenes: list[dict]
+    questions: dict[str, list[dict]]
+
+    def image_path(self, index: int) -> Path:
+        return image_path(self.root, index)
+
+    def scene(self, index: int):
+        from po3d_ppl.world.scene_io import scene_from_public
+
+        return scene_from_public(self.public_scenes[index], f"{self.root / 'scenes.json'}: scenes[{index}]")
+
+    def split(self, name: str) -> DatasetSplit:
+        if name not in self.splits:
+            raise InputError("split", f"unknown split {name!r} (known: {', '.join(self.splits)})")
+        indices = self.splits[name]
+        members = set(indices)
+        return DatasetSplit(name, [self.scene(i) for i in indices],
+                            {k: [q for q in qs if q["image_index"] in members] for k, qs in self.questions.items()})
+
+
+def _read_json_file(path: Path, what: str) -> object:
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(what, f"{path} is missing; is this a finished `po3d dataset build` directory?") from None
+    except json.JSONDecodeError as exc:
+        raise InputError(what, f"{path} is not valid JSON ({exc.msg} at line {exc.lineno})") from None
+
+
+def load_dataset(root: str | os.PathLike) -> Dataset:
+    """Load a built dataset directory."""
+    root = Path(root)
+    if not root.is_dir():
+        raise InputError("dataset", f"{root} is not a directory")
+    manifest = _read_json_file(root / "manifest.json", "manifest")
+    splits = _read_json_file(root / "splits.json", "splits")
+    scenes = _read_json_file(root / "scenes.json", "scenes")["scenes"]
+    questions = {p.stem: _read_json_file(p, f"questions/{p.name}")["questions"]
+                 for p in sorted((root / "questions").glob("*.json"))}
+    return Dataset(root, manifest, splits, scenes, questions)
