@@ -19,6 +19,7 @@ that could hide it (a ray that misses every object misses this one too).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache, lru_cache
 
 import cv2
 import numpy as np
@@ -50,6 +51,8 @@ class PlacedMesh:
     #: 4x4 object-to-world transform and the canonical mesh's bounds ``[[min xyz], [max xyz]]``.
     transform: np.ndarray
     bounds: np.ndarray
+    #: [F, 3, 3] world-space shading normal at each triangle corner (smooth within creases).
+    corner_normals: np.ndarray
 
     @property
     def box_centre(self) -> np.ndarray:
@@ -69,9 +72,72 @@ def place_meshes(specs: list[ObjectSpec]) -> list[PlacedMesh]:
         M = spec.transform(bounds)
         vertices = np.asarray(vm.mesh.vertices, dtype=np.float64) @ M[:3, :3].T + M[:3, 3]
         mesh = trimesh.Trimesh(vertices, np.asarray(vm.mesh.faces), process=False)
+        rotation = (M[:3, :3] / spec.scale).astype(np.float32)
+        normals = corner_normals(spec.subtype) @ rotation.T
         placed.append(PlacedMesh(mesh, np.asarray(vm.face_parts, dtype=np.int16),
-                                 np.asarray(vm.face_finish, dtype=np.int8), M, bounds))
+                                 np.asarray(vm.face_finish, dtype=np.int8), M, bounds, normals))
     return placed
+
+
+@cache
+def corner_normals(subtype: str, crease_degrees: float = 35.0) -> np.ndarray:
+    """[F, 3, 3] unit shading normals at the corners of the subtype's canonical mesh: the area-weighted mean of
+    the normals of faces that share the corner's position and bend less than ``crease_degrees`` from the face.
+
+    trimesh's ``smooth_shade`` does the same but renumbers faces, and the face index is what links a ray hit to
+    its part label, so the averaging is done here on the mesh as built.
+    """
+    from po3d_ppl.world.meshes import vehicle_mesh
+
+    mesh = vehicle_mesh(subtype).mesh
+    fn, area = np.asarray(mesh.face_normals), np.asarray(mesh.area_faces)
+    _, position = np.unique(np.round(np.asarray(mesh.vertices), 6), axis=0, return_inverse=True)
+    corner_group = position.reshape(-1)[np.asarray(mesh.faces)].ravel()
+    corner_face = np.repeat(np.arange(len(mesh.faces)), 3)
+    order = np.argsort(corner_group, kind="stable")
+    groups, faces = corner_group[order], corner_face[order]
+    starts = np.flatnonzero(np.r_[True, groups[1:] != groups[:-1]])
+    sizes = np.diff(np.r_[starts, len(groups)])
+    # Every (corner, other corner at the same position) pair, group by group.
+    per = np.repeat(sizes, sizes)
+    a = np.repeat(np.arange(len(groups)), per)
+    b = np.repeat(np.repeat(starts, sizes), per) + (np.arange(len(a)) - np.repeat(np.cumsum(per) - per, per))
+    fa, fb = faces[a], faces[b]
+    keep = (fn[fa] * fn[fb]).sum(axis=1) >= np.cos(np.radians(crease_degrees))
+    acc = np.zeros((len(groups), 3))
+    np.add.at(acc, a[keep], fn[fb[keep]] * area[fb[keep], None])
+    acc /= np.maximum(np.linalg.norm(acc, axis=1, keepdims=True), 1e-12)
+    out = np.empty_like(acc)
+    out[order] = acc
+    return out.reshape(-1, 3, 3).astype(np.float32)
+
+
+def shading_normals(meshes: list[PlacedMesh], geometry: np.ndarray, face: np.ndarray, points: np.ndarray,
+                    facing: np.ndarray, view: np.ndarray) -> np.ndarray:
+    """Smooth normals at hit ``points`` (barycentric interpolation of corner normals), turned to the viewer like
+    the geometric ``facing`` normals; where interpolation would face away from the viewer, the geometric normal."""
+    out = facing.copy()
+    for i, m in enumerate(meshes):
+        sel = np.flatnonzero(geometry == i)
+        if sel.size == 0:
+            continue
+        tri = np.asarray(m.mesh.triangles, dtype=np.float32)[face[sel]]
+        v0, v1, v2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0], points[sel] - tri[:, 0]
+        d00, d01, d11 = (v0 * v0).sum(1), (v0 * v1).sum(1), (v1 * v1).sum(1)
+        d20, d21 = (v2 * v0).sum(1), (v2 * v1).sum(1)
+        denom = np.maximum(d00 * d11 - d01 * d01, 1e-20)
+        v = np.clip((d11 * d20 - d01 * d21) / denom, 0, 1)
+        w = np.clip((d00 * d21 - d01 * d20) / denom, 0, 1)
+        u = np.clip(1 - v - w, 0, 1)
+        cn = m.corner_normals[face[sel]]
+        n = u[:, None] * cn[:, 0] + v[:, None] * cn[:, 1] + w[:, None] * cn[:, 2]
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+        # Corner normals follow the mesh's winding; match the side the geometric normal was turned to.
+        geometric = np.asarray(m.mesh.face_normals, dtype=np.float32)[face[sel]]
+        n *= np.sign((geometric * facing[sel]).sum(1, keepdims=True) + 1e-12)
+        ok = (n * view[sel]).sum(1) > 0.05
+        out[sel[ok]] = n[ok]
+    return out
 
 
 @dataclass
@@ -103,11 +169,32 @@ class GBuffer:
         return np.bincount(self.geometry[self.geometry >= 0], minlength=n_objects)[:n_objects]
 
 
+@lru_cache(maxsize=4)
+def _directions(camera: Camera) -> np.ndarray:
+    from po3d_ppl.world.raycast import camera_rays
+
+    dirs = camera_rays(camera)[1]
+    dirs.setflags(write=False)
+    return dirs
+
+
+def pixel_rays(camera: Camera) -> tuple[np.ndarray, np.ndarray]:
+    """``raycast.camera_rays``, with the directions cached: they depend only on the camera's rotation and
+    intrinsics, which the CLEVR camera keeps fixed while jitter moves it."""
+    M = camera.camera_to_world
+    at_origin = Camera(camera.width, camera.height, camera.intrinsics,
+                       tuple(tuple(row[:3]) + (0.0,) for row in M[:3]) + ((0.0, 0.0, 0.0, 1.0),))
+    dirs = _directions(at_origin)
+    origins = np.empty_like(dirs)
+    origins[:] = np.asarray([M[0][3], M[1][3], M[2][3]], dtype=np.float32)
+    return origins, dirs
+
+
 def cast_primary(meshes: list[PlacedMesh], camera: Camera) -> GBuffer:
     """Cast one ray per pixel centre against all objects."""
-    from po3d_ppl.world.raycast import RayCaster, camera_rays
+    from po3d_ppl.world.raycast import RayCaster
 
-    origins, dirs = camera_rays(camera)
+    origins, dirs = pixel_rays(camera)
     caster = RayCaster([m.mesh for m in meshes])
     hits = caster.cast(origins, dirs)
     geometry = np.asarray(hits.geometry, dtype=np.int32)
@@ -188,10 +275,16 @@ def srgb_to_linear(c: np.ndarray) -> np.ndarray:
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
 
 
+_SRGB_STEPS = 4096
+_SRGB_LUT = np.round(255.0 * np.where(
+    np.linspace(0, 1, _SRGB_STEPS) <= 0.0031308, 12.92 * np.linspace(0, 1, _SRGB_STEPS),
+    1.055 * np.power(np.linspace(0, 1, _SRGB_STEPS), 1 / 2.4) - 0.055)).astype(np.uint8)
+
+
 def linear_to_srgb8(c: np.ndarray) -> np.ndarray:
-    c = np.clip(c, 0.0, 1.0)
-    s = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
-    return np.round(s * 255.0).astype(np.uint8)
+    """Linear [0, 1] -> sRGB uint8 through a 4096-entry table (within one 8-bit level of the exact curve)."""
+    idx = (np.clip(c, 0.0, 1.0) * (_SRGB_STEPS - 1) + 0.5).astype(np.int32)
+    return _SRGB_LUT[idx]
 
 
 #: Unlabelled non-paint finishes (fixed looks, so windows, tyres and lamps read as such whatever the colour).
@@ -246,51 +339,50 @@ def _shadowed(caster, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
     return np.asarray(hits.geometry) >= 0
 
 
+#: A large soft light behind the scene (as seen from CLEVR's camera), about 30 degrees up. Metal reflects it on
+#: upward-facing surfaces; the dark ground is what side panels reflect.
+SOFTBOX = np.array([-0.66, 0.62, 0.55]) / np.linalg.norm([-0.66, 0.62, 0.55])
+
+
 def _environment(r: np.ndarray) -> np.ndarray:
-    """Radiance seen along reflected directions: a bright sky above the horizon, the dim ground below."""
-    up = np.clip(r[:, 2], -1.0, 1.0)
-    return np.where(up > 0, 0.35 + 0.6 * np.sqrt(np.clip(up, 0, 1)), GROUND_ALBEDO * 0.6).astype(np.float32)
+    """Radiance seen along reflected directions ``r``: a grey sky with a bright softbox above the horizon, the
+    dark ground below it. The contrast is what makes metal read as metal."""
+    up = r[:, 2]
+    softbox = np.clip(r @ SOFTBOX.astype(np.float32), 0, 1) ** 6
+    return np.where(up > 0, 0.45 + 2.2 * softbox, 0.05).astype(np.float32)
 
 
 def shade(gbuffer: GBuffer, meshes: list[PlacedMesh], looks: list[ObjectLook], camera: Camera,
           shadows: bool = True) -> np.ndarray:
     """The RGB uint8 image."""
     H, W = gbuffer.height, gbuffer.width
-    d = gbuffer.dirs.astype(np.float32)
-    o = gbuffer.origins.astype(np.float32)
-    radiance = np.zeros((H * W, 3), dtype=np.float32)
+    d, o = gbuffer.dirs, gbuffer.origins
     key = KEY_LIGHT.astype(np.float32)
+    # Rays that miss everything (above the horizon) see a flat sky.
+    radiance = np.full((H * W, 3), 0.35, dtype=np.float32)
 
-    # Ground plane.
-    ground = (gbuffer.geometry < 0) & (d[:, 2] < 0)
-    t_ground = np.where(ground, -o[:, 2] / np.where(d[:, 2] < 0, d[:, 2], -1.0), np.inf)
-    lit_ground = np.ones(H * W, dtype=np.float32)
-    obj = gbuffer.geometry >= 0
-    obj_idx = np.flatnonzero(obj)
-    n = gbuffer.normal[obj_idx].astype(np.float32)
-    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+    obj_idx = np.flatnonzero(gbuffer.geometry >= 0)
+    g = np.flatnonzero((gbuffer.geometry < 0) & (d[:, 2] < 0))
+    gpos = o[g] + d[g] * (-o[g, 2] / d[g, 2])[:, None]
+    n = gbuffer.normal[obj_idx]
+    n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
     n *= np.where((n * d[obj_idx]).sum(axis=1, keepdims=True) > 0, -1.0, 1.0).astype(np.float32)
     p = o[obj_idx] + d[obj_idx] * gbuffer.distance[obj_idx, None]
+    lit_ground = np.ones(len(g), dtype=np.float32)
     lit_obj = np.ones(len(obj_idx), dtype=np.float32)
     if shadows and meshes:
-        cand = np.flatnonzero(ground & shadow_candidates(meshes, camera).ravel())
-        gp = o[cand] + d[cand] * t_ground[cand, None]
-        gn = np.broadcast_to(np.array([0, 0, 1], np.float32), gp.shape)
-        lit_ground[cand] = np.where(_shadowed(gbuffer.caster, gp, gn), 0.0, 1.0)
+        cand = np.flatnonzero(shadow_candidates(meshes, camera).ravel()[g])
+        up = np.broadcast_to(np.array([0, 0, 1], np.float32), (len(cand), 3))
+        lit_ground[cand] = np.where(_shadowed(gbuffer.caster, gpos[cand], up), 0.0, 1.0)
         lit_obj = np.where(_shadowed(gbuffer.caster, p, n), 0.0, 1.0).astype(np.float32)
 
-    g = np.flatnonzero(ground)
-    gpos = o[g] + d[g] * t_ground[g, None]
-    # A soft fall-off towards the horizon, like CLEVR's curved backdrop.
+    # Ground plane, with a soft fall-off towards the horizon like CLEVR's curved backdrop.
     fade = np.exp(-np.hypot(gpos[:, 0], gpos[:, 1]) / 40.0)
-    ground_rad = GROUND_ALBEDO * (0.45 + 0.75 * key[2] * lit_ground[g]) * (0.75 + 0.25 * fade)
-    radiance[g] = ground_rad[:, None]
-    # Rays that miss everything (above the horizon): a flat sky.
-    radiance[(~ground) & (~obj)] = 0.35
+    radiance[g] = (GROUND_ALBEDO * (0.45 + 0.75 * key[2] * lit_ground) * (0.75 + 0.25 * fade))[:, None]
 
-    # Objects.
     if len(obj_idx):
-        radiance[obj_idx] = _shade_objects(gbuffer, meshes, looks, obj_idx, n, d[obj_idx], lit_obj)
+        ns = shading_normals(meshes, gbuffer.geometry[obj_idx], gbuffer.face[obj_idx], p, n, -d[obj_idx])
+        radiance[obj_idx] = _shade_objects(gbuffer, meshes, looks, obj_idx, ns, d[obj_idx], lit_obj)
     return linear_to_srgb8(radiance.reshape(H, W, 3))
 
 
@@ -318,14 +410,14 @@ def _shade_objects(gbuffer: GBuffer, meshes: list[PlacedMesh], looks: list[Objec
     ndv = np.clip((n * view).sum(axis=1), 0, 1)
     env = _environment(2 * ndv[:, None] * n - view)
     fresnel = 0.6 + 0.4 * (1 - ndv) ** 3
-    highlight = (1.4 * ndh**90 + 0.25 * ndh**12) * lit
+    highlight = (1.6 * ndh**120 + 0.35 * ndh**20) * lit
 
     out = albedo * (0.18 + 0.85 * ndl + 0.22 * ndf)[:, None] + (0.05 * ndh**12 * lit)[:, None]  # rubber
     metal = model == METAL
-    out[metal] = (albedo[metal] * (0.06 + 0.3 * ndl[metal] + 0.08 * ndf[metal])[:, None]
-                  + albedo[metal] * (0.75 * env[metal] * fresnel[metal])[:, None] + highlight[metal, None])
+    out[metal] = (albedo[metal] * (0.04 + 0.22 * ndl[metal] + 0.05 * ndf[metal])[:, None]
+                  + (albedo[metal] * 0.9 + 0.06) * (env[metal] * fresnel[metal])[:, None] + highlight[metal, None])
     glass = model == GLASS
-    out[glass] = albedo[glass] + (0.25 * env[glass] * (0.3 + fresnel[glass]) + highlight[glass])[:, None]
+    out[glass] = albedo[glass] + (0.08 * env[glass] * (0.3 + fresnel[glass]) + highlight[glass])[:, None]
     lamp = model == LAMP
     out[lamp] = albedo[lamp] * (0.7 + 0.3 * ndl[lamp])[:, None]
     return out
