@@ -188,7 +188,9 @@ class SceneQuestionGenerator:
         """(key, output mask) pairs the step may use on input ``within``: (minimal keys, redundant keys).
 
         A key is redundant when a key with one slot fewer, also allowed, selects the same members; checking one
-        slot fewer suffices because every key between two keys with equal outputs has that output too.
+        slot fewer suffices because every key between two keys with equal outputs has that output too. Dropping
+        a NOT-NULL slot counts even though the smaller key is not allowed: the pose in "the car that faces left"
+        must be what singles the car out.
         """
         cache_key = (step, within, relational)
         found = self._options.get(cache_key)
@@ -217,7 +219,9 @@ class SceneQuestionGenerator:
         for key, out in allowed.items():
             if (step.aggregate == "unique" and out.bit_count() != 1) or (step.aggregate is None and not out):
                 continue
-            if any(v is not None and allowed.get(key[:s] + (None,) + key[s + 1:]) == out for s, v in enumerate(key)):
+            # a NOT-NULL slot must also be needed: compare with the (disallowed) key without it
+            if any(v is not None and (outs if step.forced_nonnull[s] else allowed).get(key[:s] + (None,) + key[s + 1:])
+                   == out for s, v in enumerate(key)):
                 redundant.append((key, out))
             else:
                 minimal.append((key, out))

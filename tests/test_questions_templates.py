@@ -1,0 +1,163 @@
+"""Template files: the 61 Super-CLEVR-3D families of spec §3.2, our extensions, loading checks and wording."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from po3d_ppl.questions.question_sets import question_sets
+from po3d_ppl.questions.template_format import TemplateError, load_template_file, parse_template, template_files
+from po3d_ppl.questions.verbalise import fill_text, plural, value_words, verbalise_answer
+
+
+def chain(filename: str, index: int) -> list[str]:
+    return [n["type"] for n in load_template_file(filename)[index].nodes]
+
+
+def nulls(filename: str, index: int) -> set[str]:
+    return set(load_template_file(filename)[index].null_params())
+
+
+def test_family_counts():
+    counts = {f: len(load_template_file(f)) for f in template_files()}
+    assert counts == {"parts.json": 9, "pose.json": 17, "occlusion.json": 16, "occlusion_by.json": 19,
+                      "core.json": 25, "height_depth.json": 8}
+    assert sum(counts[f] for f in ("parts.json", "pose.json", "occlusion.json", "occlusion_by.json")) == 61
+
+
+@pytest.mark.parametrize(("filename", "index", "nodes", "answer", "null"), [
+    ("parts.json", 0, ["scene", "filter_unique", "object2part", "partfilter_unique", "partquery_color"], "Color",
+     {"<Z2>", "<C2>"}),
+    ("parts.json", 4, ["scene", "filter", "object2part", "partfilter_unique", "part2object", "unique",
+                       "query_shape"], "Shape", {"<Z2>", "<S>"}),
+    ("parts.json", 7, ["scene", "object2part", "partfilter_unique", "part2object", "object2part",
+                       "partfilter_unique", "partquery_partname"], "Partname", {"<Z>", "<Z2>", "<P>"}),
+    ("pose.json", 0, ["scene", "filter_unique", "query_pose"], "Direction", {"<R>"}),
+    ("pose.json", 3, ["scene", "filter_unique", "query_size"], "Size", {"<Z>"}),
+    ("pose.json", 12, ["scene", "filter_unique", "opposite_pose", "filter_unique", "query_shape"], "Shape",
+     {"<R>", "<R2>", "<S2>"}),
+    ("pose.json", 13, ["scene", "filter_unique", "vertical_pose", "filter_unique", "query_color"], "Color",
+     {"<R>", "<R2>", "<C2>"}),
+    ("occlusion.json", 1, ["scene", "filter_unique", "object2part_all", "partfilter_occludee", "unique",
+                           "partquery_partname"], "Partname", set()),
+    ("occlusion.json", 5, ["scene", "filter_occludee", "filter", "unique", "query_shape"], "Shape", {"<S>"}),
+    ("occlusion.json", 9, ["scene", "filter", "object2part_all", "partfilter_occludee", "partfilter",
+                           "part2object", "unique", "query_size"], "Size", {"<Z2>", "<C2>", "<M2>", "<Z>"}),
+    ("occlusion.json", 11, ["scene", "filter_occludee", "filter", "object2part", "partfilter_unique",
+                            "partquery_partname"], "Partname", {"<Z2>", "<P>"}),
+    ("occlusion.json", 13, ["scene", "object2part_all", "partfilter_occludee", "partfilter", "part2object", "filter",
+                            "object2part", "partfilter_unique", "partquery_partname"], "Partname",
+     {"<Z3>", "<C3>", "<M3>", "<Z2>", "<P>"}),
+    ("occlusion_by.json", 0, ["scene", "filter_unique", "object2part_all", "partfilter_unique",
+                              "relate_part_occluded", "filter_exist"], "Bool", {"<Z3>", "<C3>", "<M3>"}),
+    ("occlusion_by.json", 4, ["scene", "filter_unique", "relate_occluding", "filter_unique", "query_shape"], "Shape",
+     {"<S>"}),
+    ("occlusion_by.json", 5, ["scene", "filter_unique", "relate_occluded", "filter_unique", "query_size"], "Size",
+     {"<Z>"}),
+    ("occlusion_by.json", 12, ["scene", "filter_unique", "relate_occluding_part", "partfilter_unique", "part2object",
+                               "filter_unique", "query_shape"], "Shape", {"<Z3>", "<C3>", "<M3>", "<S>"}),
+    ("occlusion_by.json", 15, ["scene", "filter_unique", "relate_occluding", "filter", "object2part",
+                               "partfilter_unique", "partquery_partname"], "Partname", {"<Z3>", "<P>"}),
+    ("occlusion_by.json", 18, ["scene", "filter_unique", "relate_occluding_part", "partfilter_unique", "part2object",
+                               "object2part", "partfilter_unique", "partquery_color"], "Color",
+     {"<Z>", "<C>", "<M>", "<Z3>", "<C3>"}),
+])
+def test_families_follow_spec_3_2(filename, index, nodes, answer, null):
+    tmpl = load_template_file(filename)[index]
+    assert chain(filename, index) == nodes
+    assert tmpl.answer_type == answer
+    assert nulls(filename, index) == null
+
+
+def test_constraints_of_spec():
+    def types(f, i):
+        return {(c.type, tuple(c.params)) for c in load_template_file(f)[i].constraints}
+
+    for i in range(6, 9):
+        assert ("OUT_NEQ", (2, 5)) in types("parts.json", i)
+    for i in range(1, 5):
+        assert ("NOT-NULL", ("<R>",)) in types("pose.json", i)
+    for i in range(19):
+        assert ("NOT_ALL_NULL", ("<Z2>", "<C2>", "<M2>", "<S2>")) in types("occlusion_by.json", i)
+    for i in range(16, 19):
+        assert ("OUT_NEQ", (3, 6)) in types("occlusion_by.json", i)
+    for i in range(13, 16):
+        assert ("OUT_NEQ", (3, 7)) in types("occlusion.json", i)
+    for i in range(10, 13):
+        assert ("NOT_ALL_NULL", ("<Z>", "<C>", "<M>", "<S>")) in types("occlusion.json", i)
+
+
+def test_question_sets_map_to_the_released_files():
+    sets = question_sets(height_depth=True)
+    assert list(sets) == ["parts", "pose", "occlusion", "obj_occlusion", "core", "height_depth"]
+    assert len(sets["occlusion"].families) == 35
+    obj = sets["obj_occlusion"].families
+    assert obj == tuple([("occlusion.json", i) for i in range(2, 6)] + [("occlusion_by.json", i) for i in range(1, 9)])
+    assert "height_depth" not in question_sets()
+
+
+def test_relation_params_are_restricted():
+    hd = load_template_file("height_depth.json")
+    assert {v for t in hd for v in t.param_values["<R>"]} == {"above", "below", "closer", "farther"}
+    core = load_template_file("core.json")
+    assert set(core[6].param_values["<R>"]) == {"left", "right", "behind", "front"}
+
+
+GOOD = {"text": ["How many <Z> <S>s?"], "nodes": [{"type": "scene", "inputs": []},
+        {"type": "filter_count", "inputs": [0], "side_inputs": ["<Z>", "<S>"]}],
+        "params": [{"type": "Size", "name": "<Z>"}, {"type": "Shape", "name": "<S>"}], "constraints": []}
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    (lambda t: t["nodes"].append({"type": "qurey_color", "inputs": [1]}), "unknown node type"),
+    (lambda t: t["nodes"].append({"type": "query_color", "inputs": [1]}), "does not accept"),
+    (lambda t: t["nodes"][1].update(inputs=[3]), "must name earlier nodes"),
+    (lambda t: t.update(text=["How many <S>s?"]), "does not mention ['<Z>']"),
+    (lambda t: t.update(text=["How many <Z> <S>s of <C>?"]), "undeclared"),
+    (lambda t: t.update(constraints=[{"type": "SAME", "params": []}]), "unknown constraint type"),
+    (lambda t: t["params"].append({"type": "Color", "name": "<C>"}), "never used"),
+    (lambda t: t["params"][0].update(values=["huge"]), "not in Size"),
+    (lambda t: t["nodes"][1].update(type="filter"), "must give an answer value"),
+])
+def test_template_checks(change, message):
+    raw = json.loads(json.dumps(GOOD))
+    parse_template("x.json", 0, raw)
+    change(raw)
+    with pytest.raises(TemplateError, match="x.json\\[0\\]") as exc:
+        parse_template("x.json", 0, raw)
+    assert message in str(exc.value)
+
+
+def test_every_text_reads_cleanly():
+    for f in template_files():
+        for t in load_template_file(f):
+            for text in t.texts:
+                assert text.endswith(("?", ".")) and "  " not in text, (t.name, text)
+
+
+def test_verbalisation():
+    rng = np.random.default_rng(0)
+    assert plural("bus") == "buses" and plural("road bike") == "road bikes" and plural("thing") == "things"
+    assert value_words("Shape", "articulated", rng) == "articulated bus"
+    assert value_words("Shape", "mountain", rng) == "mountain bike"
+    assert value_words("Partname", "wheel_back_left", rng) == "back left wheel"
+    assert value_words("Partname", "exhaust_left_s", rng) == "left exhaust"
+    assert value_words("Partname", "wheel", rng) == "wheel"
+    assert value_words("Partname", None, rng) == "part"
+    assert value_words("Shape", None, rng) in ("thing", "object")
+    assert {value_words("Size", "large", rng) for _ in range(30)} == {"large", "big"}
+    assert {value_words("Material", "metal", rng) for _ in range(40)} == {"metal", "metallic", "shiny"}
+    types = {"<Z>": "Size", "<C>": "Color", "<S>": "Shape", "<R>": "Relation"}
+    text = fill_text("Is there a <Z> <C> <S> <R> the <S>?", types,
+                     {"<Z>": None, "<C>": None, "<S>": "airliner", "<R>": "front"}, rng)
+    assert text == "Is there an airliner in front of the airliner?"
+    assert fill_text("a <S>", types, {"<S>": "utility"}, rng) == "A utility bike"
+    assert fill_text("How many <C> <S>s?", types, {"<C>": "red", "<S>": "bus"}, rng) == "How many red buses?"
+    seen = {fill_text("Count[ them].", types, {}, rng) for _ in range(20)}
+    assert seen == {"Count them.", "Count."}
+    assert verbalise_answer("exhaust_right_s", "Partname") == "right exhaust"
+    assert verbalise_answer("school", "Shape") == "school bus"
+    assert verbalise_answer(True, "Bool") is True and verbalise_answer(3, "Integer") == 3
+    assert verbalise_answer("left", "Direction") == "left"
