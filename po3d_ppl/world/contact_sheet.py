@@ -12,32 +12,15 @@ from pathlib import Path
 import numpy as np
 
 from po3d_ppl.world import ontology
-from po3d_ppl.world.meshes import FINISHES, VehicleMesh, all_vehicle_meshes, vehicle_mesh
+from po3d_ppl.world.meshes import VehicleMesh, all_vehicle_meshes, vehicle_mesh
+from po3d_ppl.world.meshes.export import face_colors, part_palette
 from po3d_ppl.world.raycast import RayCaster, camera_rays, look_at_camera
 from po3d_ppl.world.scene import Camera
 
-#: RGB (0..1) of unlabelled geometry per finish.
-FINISH_RGB: dict[str, tuple[float, float, float]] = {
-    "paint": (0.62, 0.62, 0.64),
-    "glass": (0.22, 0.26, 0.32),
-    "rubber": (0.16, 0.16, 0.17),
-    "chrome": (0.80, 0.80, 0.82),
-    "lamp": (0.95, 0.95, 0.85),
-}
 BACKGROUND_RGB = (1.0, 1.0, 1.0)
 #: (azimuth, elevation) in degrees of the contact-sheet views; azimuth 0 looks at the vehicle's front.
 SHEET_VIEWS: tuple[tuple[float, float], ...] = ((40.0, 25.0), (220.0, 25.0))
 LEGEND_VIEWS: tuple[tuple[float, float], ...] = ((40.0, 25.0), (140.0, 25.0), (220.0, 25.0), (320.0, 25.0))
-
-
-def part_palette(n: int) -> np.ndarray:
-    """``n`` distinct, saturated RGB colours (0..1), deterministic; neighbours in id order differ strongly."""
-    import matplotlib
-
-    tab = [c for k, c in enumerate(matplotlib.colormaps["tab20"].colors) if k not in (14, 15)]  # no greys
-    base = tab[::2] + tab[1::2] + list(matplotlib.colormaps["Dark2"].colors[:7])
-    base += list(matplotlib.colormaps["Set1"].colors[:8])
-    return np.asarray([base[i % len(base)] for i in range(n)], dtype=np.float64)
 
 
 def view_camera(extents: np.ndarray, azimuth: float, elevation: float, width: int, height: int,
@@ -66,21 +49,14 @@ def view_camera(extents: np.ndarray, azimuth: float, elevation: float, width: in
     return look_at_camera(centre + hi * direction, centre, width=width, height=height, focal_px=f)
 
 
-def shade(vm: VehicleMesh, camera: Camera, palette: np.ndarray | None = None,
-          caster: RayCaster | None = None) -> np.ndarray:
+def shade(vm: VehicleMesh, camera: Camera, caster: RayCaster | None = None) -> np.ndarray:
     """Render ``vm`` (canonical frame) as an RGB float image: part colours, grey body, Lambert shading."""
     caster = caster or RayCaster([vm.mesh])
-    palette = part_palette(len(vm.part_names)) if palette is None else palette
     origins, dirs = camera_rays(camera)
     hits = caster.cast(origins, dirs)
     img = np.tile(np.asarray(BACKGROUND_RGB), (len(hits), 1))
     hit = hits.hit
-    face = hits.face[hit]
-    parts = vm.face_parts[face]
-    finish_rgb = np.asarray([FINISH_RGB[f] for f in FINISHES])
-    base = finish_rgb[vm.face_finish[face]]
-    labelled = parts >= 0
-    base[labelled] = palette[parts[labelled]]
+    base = face_colors(vm)[hits.face[hit]]
     normal = hits.normal[hit].astype(np.float64)
     view = -dirs[hit].astype(np.float64)
     normal *= np.sign(np.sum(normal * view, axis=1, keepdims=True) + 1e-12)  # two-sided

@@ -127,14 +127,14 @@ class RayCaster:
         if self._ids.shape[0] != len(self._meshes):
             raise InputError("ids", f"got {self._ids.shape[0]} ids for {len(self._meshes)} meshes")
         self._scene = rtcore_scene.EmbreeScene()
-        self._normals: list[np.ndarray] = []
+        normals: list[np.ndarray] = []
         self._embree_index = np.full(len(self._meshes), -1, dtype=np.int32)
         for k, mesh in enumerate(self._meshes):
             if not isinstance(mesh, trimesh.Trimesh):
                 raise InputError("meshes", f"item {k} is a {type(mesh).__name__}, expected trimesh.Trimesh")
-            self._normals.append(np.asarray(mesh.face_normals, dtype=np.float32))
             if len(mesh.faces) == 0:
                 continue
+            normals.append(np.asarray(mesh.face_normals, dtype=np.float32))
             # embree numbers geometries in creation order; remember which input each number stands for.
             mesh_construction.TriangleMesh(
                 self._scene,
@@ -144,7 +144,9 @@ class RayCaster:
             self._embree_index[k] = int(np.count_nonzero(self._embree_index >= 0))
         embree_to_input = np.flatnonzero(self._embree_index >= 0)
         self._embree_to_id = self._ids[embree_to_input]
-        self._embree_to_input = embree_to_input.astype(np.int32)
+        # all face normals in one table: row = first row of the hit geometry + primitive id
+        self._normal_table = np.concatenate(normals) if normals else np.zeros((0, 3), np.float32)
+        self._normal_offset = np.cumsum([0] + [len(n) for n in normals])[:-1].astype(np.int64)
 
     @property
     def meshes(self) -> list[trimesh.Trimesh]:
@@ -180,15 +182,10 @@ class RayCaster:
             return Hits(geometry, face, distance, normal)
         out = self._scene.run(o, d, output=1)
         geom = np.asarray(out["geomID"], dtype=np.int32)
-        hit = geom >= 0
-        prim = np.asarray(out["primID"], dtype=np.int32)
-        geometry[hit] = self._embree_to_id[geom[hit]]
-        face[hit] = prim[hit]
-        distance[hit] = np.asarray(out["tfar"], dtype=np.float32)[hit]
-        inputs = self._embree_to_input[geom[hit]]
-        faces_hit = prim[hit]
-        for k in np.unique(inputs):
-            sel = inputs == k
-            rows = np.flatnonzero(hit)[sel]
-            normal[rows] = self._normals[k][faces_hit[sel]]
+        rows = np.flatnonzero(geom >= 0)
+        g, prim = geom[rows], np.asarray(out["primID"], dtype=np.int32)[rows]
+        geometry[rows] = self._embree_to_id[g]
+        face[rows] = prim
+        distance[rows] = np.asarray(out["tfar"], dtype=np.float32)[rows]
+        normal[rows] = self._normal_table[self._normal_offset[g] + prim]
         return Hits(geometry, face, distance, normal)

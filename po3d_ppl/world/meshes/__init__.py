@@ -17,9 +17,12 @@ from po3d_ppl.errors import UnknownNameError
 from po3d_ppl.world import ontology
 from po3d_ppl.world.meshes import aeroplanes, bicycles, buses, cars, motorbikes  # noqa: F401  (register builders)
 from po3d_ppl.world.meshes.assembly import FINISHES, UNLABELLED, VehicleMesh, canonical_extents
+from po3d_ppl.world.meshes.export import export_glb
 from po3d_ppl.world.meshes.registry import BUILDERS
 
-__all__ = ["FINISHES", "UNLABELLED", "VehicleMesh", "all_vehicle_meshes", "canonical_extents", "vehicle_mesh"]
+__all__ = [
+    "FINISHES", "UNLABELLED", "VehicleMesh", "all_vehicle_meshes", "canonical_extents", "export_glb", "vehicle_mesh",
+]
 
 
 @cache

@@ -167,8 +167,11 @@ def airliner() -> Assembly:
     for sign, side in SIDES:
         asm.add(f"engine_{side}", nacelle((5.5, sign * 5.8, 1.95), 4.6, 1.05))
         asm.body(P.rounded_box((2.6, sign * 5.8, 2.7), (3.4, 0.3, 0.9), 0.1))  # pylon
-    propeller(asm, (18.45, 0.0, zc), 1.0, 3, 0.3)
-    gear_wheel(asm, "wheel_front", 14.2, 0.0, 0.45, 0.34, zc - 1.6)
+    propeller(asm, (18.45, 0.0, zc), 1.8, 3, 0.5)
+    # twin-wheel gear legs (wheels drawn a little large so they stay visible at the public scale)
+    for dy in (-0.45, 0.45):
+        gear_wheel(asm, "wheel_front", 14.2, dy, 0.6, 0.4, zc - 1.6)
     for sign, side in SIDES:
-        gear_wheel(asm, f"wheel_back_{side}", -1.0, sign * 3.3, 0.6, 0.5, zc - 1.5)
+        for dy in (-0.6, 0.6):
+            gear_wheel(asm, f"wheel_back_{side}", -1.0, sign * 3.4 + dy, 0.8, 0.55, zc - 1.5)
     return asm

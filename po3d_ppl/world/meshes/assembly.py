@@ -114,6 +114,9 @@ class Assembly:
             raise ValueError(f"{label!r} is not a part of {self.subtype}: {ontology.PARTS[self.subtype]}")
         fid = FINISHES.index(finish)
         for mesh in meshes:
+            # renderers shade with face normals: every piece must be closed and wound outward
+            if not mesh.is_watertight or mesh.volume <= 0:
+                raise ValueError(f"{self.subtype}: a piece labelled {label!r} is not a closed, outward-wound solid")
             self._pieces.append((mesh, pid, fid))
 
     def body(self, *meshes: trimesh.Trimesh, finish: str = "paint") -> None:

@@ -45,6 +45,8 @@ class BusBuilder:
         self.subtype, self.shape = subtype, shape
         self.L, self.W, self.H = design_extents(subtype, shape.length)
         self.hw = shape.body_half_width
+        #: small parts (lights, mirrors) grow on long buses so they stay visible once scaled to the public size
+        self.detail = max(1.0, shape.length / 12.0)
         self.asm = Assembly(subtype)
         self.bodies = [self._body(s0, s1, k == 0, k == len(shape.bodies) - 1) for k, (s0, s1) in enumerate(shape.bodies)]
 
@@ -180,11 +182,12 @@ class BusBuilder:
             self.asm.add("trunk", back.end_panel("back", 0.75, 1.75, (0.35, 0.0), 0.03))
         zc = CLEARANCE + 0.2
         light_z = (CLEARANCE + 0.6) if self.shape.bonnet is None else self.shape.bonnet[1] - 0.35
+        d = self.detail
         for sign, side in ((1, "left"), (-1, "right")):
-            self.asm.add(f"head_light_{side}", P.rounded_box((xf - 0.02, sign * (fw - 0.3), light_z),
-                                                            (0.1, 0.42, 0.22), 0.04), finish="lamp")
-            self.asm.add(f"tail_light_{side}", P.rounded_box((xb + 0.02, sign * (bw - 0.14), 1.35),
-                                                            (0.1, 0.22, 0.7), 0.04), finish="lamp")
+            self.asm.add(f"head_light_{side}", P.rounded_box((xf - 0.02, sign * (fw - 0.32 * d), light_z),
+                                                            (0.1, 0.5 * d, 0.26 * d), 0.04), finish="lamp")
+            self.asm.add(f"tail_light_{side}", P.rounded_box((xb + 0.02, sign * (bw - 0.15 * d), 1.35),
+                                                            (0.1, 0.24 * d, 0.7 * d), 0.04), finish="lamp")
         bumper_w = 2 * self.hw * 0.98
         if self.has("bumper_front"):
             self.asm.add("bumper_front", P.rounded_box((xf + 0.03, 0, zc), (0.2, bumper_w, 0.36), 0.06))
@@ -205,8 +208,9 @@ class BusBuilder:
             p2 = (x_face + 0.3, sign * (out - 0.08), z_top - 0.35)
             self.asm.body(P.polyline_tube(np.array([p0, p1, p2]), 0.03, 6, up=(1, 0, 0)),
                           finish="chrome")
-            self.asm.add(f"mirror_{side}", P.rounded_box((x_face + 0.3, sign * (out - 0.08), z_top - 0.55),
-                                                         (0.08, 0.16, 0.42), 0.03))
+            d = self.detail
+            self.asm.add(f"mirror_{side}", P.rounded_box((x_face + 0.3, sign * (out - 0.1 * d), z_top - 0.55 * d),
+                                                         (0.1, 0.2 * d, 0.45 * d), 0.03))
 
     def roof(self) -> None:
         for b in self.bodies:
