@@ -208,7 +208,8 @@ class LatentWorld(ABC):
     @property
     def part_size(self) -> torch.Tensor:
         """A recoloured part carries its object's size (the public data copies it); others have none."""
-        return torch.where(self.part_recoloured, self.size, values.INVALID)
+        recoloured = (self.part_name != values.INVALID) & (self.part_color != values.INVALID)
+        return torch.where(recoloured, self.size, values.INVALID)
 
     def related(self, obj, relation: str) -> torch.Tensor:
         """bool [..., N, 1]: objects in spatial ``relation`` to pivot ``obj``.

@@ -1,0 +1,176 @@
+"""A batch of concrete latent scenes, as operations see them (sampling, dense enumeration, the Pyro model).
+
+Latent values come from a *source*: a callable ``source(name) -> tensor`` giving object-centric values with a
+leading batch shape ``B`` (``exists``/``subtype``/``color``/``material``/``size``/``pose_degree``/``occluded``:
+``[*B, N]``; ``occludes``: ``[*B, N_i, N_j]`` (i occluded by j); ``part_state``/``part_occluded``: ``[*B, N, P]``
+for the slots of each object's own subtype; ``part_occludes``: ``[*B, N, P, N_j]``). Sources are asked lazily, so a
+program only pays for the latents it reads.
+
+Pivots are index tensors of shape ``[*B]`` (-1 once the execution became invalid); scalar program values have shape
+``[*B, 1, 1]``. ``valid`` tracks, per batch element, whether every ``unique`` so far found exactly one member.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cached_property
+
+import torch
+
+from po3d_ppl.reasoning import values
+from po3d_ppl.reasoning.evidence import STATE_COLOR, STATE_MATERIAL
+from po3d_ppl.reasoning.world import LatentWorld, pose_label_ids
+
+
+@dataclass(frozen=True)
+class PartHandle:
+    owner: torch.Tensor  # [*B]
+    slot: torch.Tensor  # [*B]
+
+
+class ConcreteWorld(LatentWorld):
+    def __init__(self, source: Callable[[str], torch.Tensor], batch_shape: tuple[int, ...], num_objects: int,
+                 positions: torch.Tensor, depths: torch.Tensor, directions: dict[str, torch.Tensor]):
+        self._source = source
+        self._cache: dict[str, torch.Tensor] = {}
+        self.batch_shape = tuple(batch_shape)
+        self.num_objects = num_objects
+        self.positions = positions.reshape(num_objects, 1, 3)
+        self.depths = depths.reshape(num_objects, 1)
+        self.directions = directions
+        self.valid = torch.ones(self.batch_shape, dtype=torch.bool)
+
+    def latent(self, name: str) -> torch.Tensor:
+        if name not in self._cache:
+            self._cache[name] = self._source(name)
+        return self._cache[name]
+
+    def _obj(self, name: str) -> torch.Tensor:
+        return self.latent(name).unsqueeze(-1)
+
+    # ---- latent attributes -----------------------------------------------------------------------------------
+    @property
+    def exists(self):
+        return self._obj("exists").bool()
+
+    @property
+    def subtype(self):
+        return self._obj("subtype").long()
+
+    @property
+    def color(self):
+        return self._obj("color").long()
+
+    @property
+    def material(self):
+        return self._obj("material").long()
+
+    @property
+    def size(self):
+        return self._obj("size").long()
+
+    @property
+    def pose_degree(self):
+        return self._obj("pose_degree")
+
+    @property
+    def occluded(self):
+        return self._obj("occluded").bool()
+
+    @cached_property
+    def part_color(self):
+        return STATE_COLOR[self.latent("part_state").long()]
+
+    @cached_property
+    def part_material(self):
+        return STATE_MATERIAL[self.latent("part_state").long()]
+
+    @property
+    def part_occluded(self):
+        return self.latent("part_occluded").bool()
+
+    # ---- relations ---------------------------------------------------------------------------------------------
+    def _not_self(self, obj: torch.Tensor) -> torch.Tensor:
+        return self.index != obj[..., None, None]
+
+    def occluders_of(self, obj):
+        row = _take(self.latent("occludes").bool(), obj, dim=-2)  # [*B, N_j]
+        return row.unsqueeze(-1) & self._not_self(obj)
+
+    def occludees_of(self, obj):
+        col = _take(self.latent("occludes").bool(), obj, dim=-1)  # [*B, N_i]
+        return col.unsqueeze(-1) & self._not_self(obj)
+
+    def parts_occluded_by(self, obj):
+        occ = _take(self.latent("part_occludes").bool(), obj, dim=-1)  # [*B, N, P]
+        return occ & self._not_self(obj)
+
+    def occluders_of_part(self, part: PartHandle):
+        occ = self.latent("part_occludes").bool()  # [*B, N, P, N_j]
+        row = _take(_take(occ, part.owner, dim=-3), part.slot, dim=-2)  # [*B, N_j]
+        return row.unsqueeze(-1) & self._not_self(part.owner)
+
+    # ---- pivots ---------------------------------------------------------------------------------------------------
+    def pivot_attribute(self, obj, name):
+        if name == "index":
+            return obj[..., None, None]
+        if name == "position":
+            return self.positions.squeeze(-2)[obj.clamp(min=0)][..., None, None, :]
+        if name == "depth":
+            return self.depths.squeeze(-1)[obj.clamp(min=0)][..., None, None]
+        if name == "category":
+            return values.subtype_category()[self.pivot_attribute(obj, "subtype")]
+        if name == "pose_label":
+            return pose_label_ids(self.pivot_attribute(obj, "pose_degree"))
+        value = _take(getattr(self, name).squeeze(-1), obj, dim=-1)
+        return value[..., None, None]
+
+    def pivot_part_attribute(self, part: PartHandle, name):
+        if name == "owner":
+            return part.owner[..., None, None]
+        if name == "slot":
+            return part.slot[..., None, None]
+        attribute = {"name": self.part_name, "color": self.part_color, "material": self.part_material,
+                     "size": self.part_size, "occluded": self.part_occluded.long()}[name]
+        attribute = attribute.expand(*self.batch_shape, self.num_objects, attribute.shape[-1])
+        return _take(_take(attribute, part.owner, dim=-2), part.slot, dim=-1)[..., None, None]
+
+    # ---- aggregations ------------------------------------------------------------------------------------------
+    def _members(self, members: torch.Tensor) -> torch.Tensor:
+        return members.expand(*self.batch_shape, *members.shape[-2:])
+
+    def unique_object(self, objects):
+        members = self._members(objects).squeeze(-1)
+        found = members.sum(-1) == 1
+        self.valid = self.valid & found
+        return torch.where(found, members.long().argmax(-1), values.INVALID)
+
+    def unique_part(self, parts):
+        members = self._members(parts)
+        flat = members.flatten(-2)
+        found = flat.sum(-1) == 1
+        self.valid = self.valid & found
+        index = flat.long().argmax(-1)
+        width = members.shape[-1]
+        return PartHandle(torch.where(found, index // width, values.INVALID),
+                          torch.where(found, index % width, values.INVALID))
+
+    def count(self, members):
+        return self._members(members).sum((-2, -1))[..., None, None]
+
+    def exist(self, members):
+        return self._members(members).flatten(-2).any(-1).long()[..., None, None]
+
+    def any_part(self, parts):
+        return parts.any(-1, keepdim=True)
+
+
+def _take(tensor: torch.Tensor, index: torch.Tensor, dim: int) -> torch.Tensor:
+    """``tensor`` indexed along ``dim`` by a per-batch index ``[*B]`` (the batch dims lead both tensors)."""
+    dim = dim % tensor.dim()
+    batch = index.shape
+    expanded = tensor.expand(*batch, *tensor.shape[len(batch):]) if tensor.dim() > len(batch) else tensor
+    idx = index.clamp(min=0).reshape(*batch, *([1] * (expanded.dim() - len(batch))))
+    idx = idx.expand(*batch, *[1 if d == dim else s for d, s in enumerate(expanded.shape)][len(batch):])
+    return expanded.gather(dim, idx).squeeze(dim)

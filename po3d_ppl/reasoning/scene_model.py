@@ -1,0 +1,110 @@
+"""The latent scene as one Pyro program.
+
+Read it top to bottom: every object proposal has latent existence, subtype, colour, material, size, azimuth and
+occlusion state; every part slot of every subtype hypothesis has a latent state (hidden, plain or recoloured with a
+colour and material) and occlusion state; every (entity, object) pair has a latent "is occluded by". Each latent is
+drawn from its prior and conditioned on the evidence with ``pyro.factor``.
+
+Part latents are indexed by subtype *hypothesis* (a ``models`` plate): the parts of object i are the slots of
+hypothesis ``subtype[i]``. This "switch" keeps every latent independent a posteriori (each factor touches one
+site), which the exact engine checks and relies on; the subtype's posterior comes from the subtype evidence, which
+perception computes from the same projected meshes.
+
+Every inference method derives from this function through Pyro's handlers: the exact engine traces it under
+``poutine.enum`` to read each site's posterior table; sampling draws from it with ``infer_discrete``; the generic
+reference path hands it to ``TraceEnum_ELBO``.
+
+Plate layout (shared with the inference engines): parts -1, objects -2, subtype hypotheses -3, occluders -4.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import pyro
+import pyro.distributions as dist
+import torch
+from pyro.ops.indexing import Vindex
+
+from po3d_ppl.reasoning.evidence import DTYPE, NUM_PART_STATES, ScenePriors, SceneEvidence
+from po3d_ppl.world import ontology
+
+PARTS_DIM, OBJECTS_DIM, MODELS_DIM, OCCLUDERS_DIM = -1, -2, -3, -4
+#: First dimension free for enumeration (left of every plate).
+FIRST_ENUM_DIM = -5
+
+
+@dataclass(frozen=True)
+class SiteSpec:
+    """A latent site of the scene model: its plates (outermost first) and number of values."""
+
+    name: str
+    plates: tuple[str, ...]
+    size: int | None  # None: depends on the evidence (pose bins)
+
+
+#: The latent sites, in model order. Plates: 'occluders' (j), 'models' (s), 'objects' (i), 'parts' (p).
+SITES: tuple[SiteSpec, ...] = (
+    SiteSpec("exists", ("objects",), 2),
+    SiteSpec("subtype", ("objects",), len(ontology.SUBTYPES)),
+    SiteSpec("color", ("objects",), len(ontology.COLORS)),
+    SiteSpec("material", ("objects",), len(ontology.MATERIALS)),
+    SiteSpec("size", ("objects",), len(ontology.SIZES)),
+    SiteSpec("pose", ("objects",), None),
+    SiteSpec("occluded", ("objects",), 2),
+    SiteSpec("occludes", ("occluders", "objects"), 2),
+    SiteSpec("part_state", ("models", "objects", "parts"), NUM_PART_STATES),
+    SiteSpec("part_occluded", ("models", "objects", "parts"), 2),
+    SiteSpec("part_occludes", ("occluders", "models", "objects", "parts"), 2),
+)
+SITE_NAMES = tuple(s.name for s in SITES)
+
+
+def _bernoulli(name: str, prior: float, logodds: torch.Tensor) -> torch.Tensor:
+    value = pyro.sample(name, dist.Bernoulli(torch.tensor(prior, dtype=DTYPE)))
+    pyro.factor(f"{name}_evidence", value * logodds)
+    return value
+
+
+def _categorical(name: str, probs: torch.Tensor, loglik: torch.Tensor) -> torch.Tensor:
+    """``loglik`` has the site's batch shape plus a trailing axis of values."""
+    value = pyro.sample(name, dist.Categorical(probs))
+    pyro.factor(f"{name}_evidence", Vindex(loglik)[..., value])
+    return value
+
+
+def scene_model(evidence: SceneEvidence, priors: ScenePriors = ScenePriors()) -> dict[str, torch.Tensor]:
+    """Sample a latent scene conditioned on ``evidence``. Returns the latent values by site name."""
+    n, k = evidence.num_objects, evidence.num_pose_bins
+    uniform = lambda size: torch.full((size,), 1.0 / size, dtype=DTYPE)  # noqa: E731
+    latents: dict[str, torch.Tensor] = {}
+    occluders = pyro.plate("occluders", n, dim=OCCLUDERS_DIM)
+    models = pyro.plate("models", len(ontology.SUBTYPES), dim=MODELS_DIM)
+    objects = pyro.plate("objects", n, dim=OBJECTS_DIM)
+    parts = pyro.plate("parts", ontology.MAX_PARTS, dim=PARTS_DIM)
+
+    with objects:
+        col = lambda t: t.unsqueeze(-1)  # noqa: E731  [N] -> [N, 1] (objects plate, parts broadcast)
+        latents["exists"] = _bernoulli("exists", priors.exists, col(evidence.exist_logodds))
+        for name, loglik in (("subtype", evidence.subtype_loglik), ("color", evidence.color_loglik),
+                             ("material", evidence.material_loglik), ("size", evidence.size_loglik),
+                             ("pose", evidence.pose_loglik)):
+            latents[name] = _categorical(name, uniform(loglik.shape[-1]), loglik.unsqueeze(-2))
+        latents["occluded"] = _bernoulli("occluded", priors.occluded, col(evidence.occluded_logodds))
+        with occluders:
+            # occludes[j, 0, i, 0]: object i is occluded by object j.
+            pair = evidence.occludes_logodds.T.reshape(n, 1, n, 1)
+            latents["occludes"] = _bernoulli("occludes", priors.occludes, pair)
+
+    with models, objects, parts:
+        by_model = lambda t: t.transpose(0, 1)  # noqa: E731  [N, 21, P, ...] -> [21, N, P, ...]
+        state_loglik = torch.cat(
+            [torch.zeros_like(evidence.part_visible_logodds).unsqueeze(-1),
+             (evidence.part_visible_logodds.unsqueeze(-1) + evidence.part_style_loglik)], dim=-1)
+        latents["part_state"] = _categorical("part_state", priors.part_state_probs(), by_model(state_loglik))
+        latents["part_occluded"] = _bernoulli("part_occluded", priors.part_occluded,
+                                              by_model(evidence.part_occluded_logodds))
+        with occluders:
+            pocc = evidence.part_occludes_logodds.permute(3, 1, 0, 2)  # [j, s, i, p]
+            latents["part_occludes"] = _bernoulli("part_occludes", priors.part_occludes, pocc)
+    return latents
