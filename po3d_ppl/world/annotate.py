@@ -49,8 +49,12 @@ def _entity(visible: np.ndarray, present: np.ndarray, geo: np.ndarray, view: Sol
             total: int) -> EntityAnnotation:
     """Annotation of the entity that is ``visible`` in the scene and ``present`` when its object is alone (crop
     masks); ``geo`` holds the scene's object ids in the crop."""
+    n_present = int(np.count_nonzero(present))
+    if n_present == 0:  # most parts of an object face away from the camera: nothing to encode
+        empty = str(total)
+        return EntityAnnotation(0, 0, (0, 0, 0, 0), Occlusion.from_overlaps(0, 0, {}), empty, empty)
     hidden = present & ~visible
-    n_visible, n_present, n_hidden = int(visible.sum()), int(present.sum()), int(hidden.sum())
+    n_visible, n_hidden = int(np.count_nonzero(visible)), int(np.count_nonzero(hidden))
     counts = np.bincount(geo[hidden].astype(np.int64)) if n_hidden else np.zeros(0, np.int64)
     overlaps = {int(j): int(c) for j, c in enumerate(counts) if c > 0}
     h, w = visible.shape

@@ -3,7 +3,7 @@
 :func:`generate_scene` is deterministic in its seed: attempt ``k`` draws everything from
 ``numpy.random.default_rng([seed, k])``, and an attempt is rejected (and ``k`` incremented) when the layout cannot
 be placed without intersections or some object shows fewer than ``min_object_pixels`` pixels. Rejection happens
-right after the primary cast, before the costlier solo footprints and shading.
+right after the ray casting, before annotation and shading.
 :func:`render_layout` renders a given layout (hand-made test scenes, re-rendering imported scenes).
 """
 
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from po3d_ppl.errors import InputError, Po3dError
-from po3d_ppl.world import annotate, renderer, sampler
+from po3d_ppl.world import annotate, renderer, sampler, shading
 from po3d_ppl.world.sampler import ObjectSpec, SceneConfig
 from po3d_ppl.world.scene import Camera, Scene
 
@@ -50,20 +50,18 @@ def _timed(timings: dict[str, float] | None, stage: str):
         timings[stage] = timings.get(stage, 0.0) + time.perf_counter() - start
 
 
-def _finish(specs: Sequence[ObjectSpec], meshes, gbuffer, camera: Camera, config: SceneConfig,
+def _finish(specs: Sequence[ObjectSpec], meshes, gbuffer, views, camera: Camera, config: SceneConfig,
             rng: np.random.Generator, image_index: int, timings: dict[str, float] | None,
             attempts: int) -> RenderedScene:
-    with _timed(timings, "solo"):
-        views = renderer.solo_views(gbuffer, meshes, camera)
     with _timed(timings, "annotate"):
         measures = annotate.measure(gbuffer, views, specs)
         styles = [annotate.choose_recoloured_parts(s, m, rng, config.max_recoloured_parts, config.min_part_pixels)
                   for s, m in zip(specs, measures)]
         scene = annotate.build_scene(specs, meshes, measures, styles, camera, image_index)
     with _timed(timings, "shade"):
-        looks = [renderer.object_look(s, {k: (v.color, v.material) for k, v in st.items()})
+        looks = [shading.object_look(s, {k: (v.color, v.material) for k, v in st.items()})
                  for s, st in zip(specs, styles)]
-        image = renderer.shade(gbuffer, meshes, looks, camera, shadows=config.shadows)
+        image = shading.shade(gbuffer, meshes, looks, camera, shadows=config.shadows)
         depth = renderer.depth_map(gbuffer, camera)
     return RenderedScene(image, scene, gbuffer.object_ids, gbuffer.part_ids, depth, attempts)
 
@@ -82,9 +80,9 @@ def render_layout(objects: Sequence[ObjectSpec], camera: Camera, config: SceneCo
     with _timed(timings, "place"):
         meshes = renderer.place_meshes(list(objects))
     with _timed(timings, "cast"):
-        gbuffer = renderer.cast_primary(meshes, camera)
+        gbuffer, views = renderer.render_geometry(meshes, camera)
     rng = np.random.default_rng(_check_seed(seed))
-    return _finish(list(objects), meshes, gbuffer, camera, config, rng, image_index, timings, 1)
+    return _finish(list(objects), meshes, gbuffer, views, camera, config, rng, image_index, timings, 1)
 
 
 def _check_seed(seed: int) -> int:
@@ -113,10 +111,10 @@ def generate_scene(seed: int, config: SceneConfig = SceneConfig(), *, image_inde
         with _timed(timings, "place"):
             meshes = renderer.place_meshes(specs)
         with _timed(timings, "cast"):
-            gbuffer = renderer.cast_primary(meshes, camera)
+            gbuffer, views = renderer.render_geometry(meshes, camera)
         if (gbuffer.pixel_counts(len(specs)) < config.min_object_pixels).any():
             continue
-        return _finish(specs, meshes, gbuffer, camera, config, rng, index, timings, attempt + 1)
+        return _finish(specs, meshes, gbuffer, views, camera, config, rng, index, timings, attempt + 1)
     raise GenerationError(
         f"no acceptable layout for seed {seed} in {config.max_attempts} attempts (objects must not intersect and "
         f"each must show >= {config.min_object_pixels} pixels); lower max_objects or min_object_pixels"
