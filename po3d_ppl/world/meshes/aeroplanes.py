@@ -85,9 +85,9 @@ def jet() -> Assembly:
         asm.add(f"engine_{side}", nacelle((-3.2, sign * 1.75, 2.45), 3.2, 0.6))
         asm.body(P.rounded_box((-4.6, sign * 1.0, 2.35), (1.2, 0.9, 0.18), 0.05))  # pylon
     propeller(asm, (7.45, 0.0, zc), 0.9, 3, 0.22)
-    gear_wheel(asm, "wheel_front", 5.6, 0.0, 0.3, 0.2, zc - 0.6)
+    gear_wheel(asm, "wheel_front", 5.6, 0.0, 0.4, 0.26, zc - 0.6)
     for sign, side in SIDES:
-        gear_wheel(asm, f"wheel_back_{side}", -0.3, sign * 1.7, 0.36, 0.24, 1.45)
+        gear_wheel(asm, f"wheel_back_{side}", -0.3, sign * 1.8, 0.48, 0.32, 1.45)
     return asm
 
 

@@ -288,5 +288,5 @@ def tandem() -> Assembly:
     a = np.radians(150)
     r = g.wheel_radius + 0.035
     b.add("rearlight", P.rounded_box((g.rear_axle + r * np.cos(a), 0, g.wheel_radius + r * np.sin(a)),
-                                     (0.035, 0.06, 0.05), 0.008), finish="lamp")
+                                     (0.04, 0.08, 0.07), 0.01), finish="lamp")
     return b.asm

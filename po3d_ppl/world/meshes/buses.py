@@ -164,7 +164,10 @@ class BusBuilder:
         xf, xb = front.front, back.back
         fw = front.profile_at(xf)[:, 0].max()
         bw = back.profile_at(xb)[:, 0].max()
-        if self.shape.bonnet is None:
+        if self.shape.bonnet is None and len(self.shape.window_rows) > 1:  # a windscreen per deck
+            for z0, z1 in self.shape.window_rows:
+                self.asm.body(front.end_panel("front", z0, z1, (0.08, 0.0), 0.02), finish="glass")
+        elif self.shape.bonnet is None:  # windscreen and destination display
             self.asm.body(front.end_panel("front", 1.15, H - 0.55, (0.08, 0.0), 0.02), finish="glass")
             self.asm.body(front.end_panel("front", H - 0.48, H - 0.22, (0.35, 0.0), 0.025), finish="glass")
         else:
@@ -181,11 +184,11 @@ class BusBuilder:
         if self.has("trunk"):
             self.asm.add("trunk", back.end_panel("back", 0.75, 1.75, (0.35, 0.0), 0.03))
         zc = CLEARANCE + 0.2
-        light_z = (CLEARANCE + 0.6) if self.shape.bonnet is None else self.shape.bonnet[1] - 0.35
+        light_z = (CLEARANCE + 0.62) if self.shape.bonnet is None else self.shape.bonnet[1] - 0.35
         d = self.detail
         for sign, side in ((1, "left"), (-1, "right")):
-            self.asm.add(f"head_light_{side}", P.rounded_box((xf - 0.02, sign * (fw - 0.32 * d), light_z),
-                                                            (0.1, 0.5 * d, 0.26 * d), 0.04), finish="lamp")
+            self.asm.add(f"head_light_{side}", P.rounded_box((xf - 0.01, sign * (fw - 0.34 * d), light_z),
+                                                            (0.12, 0.56 * d, 0.3 * d), 0.04), finish="lamp")
             self.asm.add(f"tail_light_{side}", P.rounded_box((xb + 0.02, sign * (bw - 0.15 * d), 1.35),
                                                             (0.1, 0.24 * d, 0.7 * d), 0.04), finish="lamp")
         bumper_w = 2 * self.hw * 0.98
@@ -194,8 +197,9 @@ class BusBuilder:
         else:
             self.asm.body(P.rounded_box((xf + 0.03, 0, zc), (0.2, bumper_w, 0.36), 0.06), finish="rubber")
         self.asm.add("bumper_back", P.rounded_box((xb - 0.03, 0, zc), (0.2, bumper_w, 0.36), 0.06))
-        self.asm.add("license_plate_front", P.box((xf + 0.14, 0, zc), (0.03, 0.6, 0.16)))
-        self.asm.add("license_plate_back", P.box((xb - 0.14, 0, zc), (0.03, 0.6, 0.16)))
+        plate = (0.03, 0.62 * self.detail, 0.2 * self.detail)
+        self.asm.add("license_plate_front", P.box((xf + 0.14, 0, zc), plate))
+        self.asm.add("license_plate_back", P.box((xb - 0.14, 0, zc), plate))
 
     def mirrors(self) -> None:
         front = self.bodies[0]

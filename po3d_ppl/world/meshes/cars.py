@@ -166,7 +166,8 @@ class CarBuilder:
         for sign, side in ((1, "left"), (-1, "right")):
             head = P.rounded_box((front - 0.02, sign * (front_hw - 0.21), hz), (0.1, 0.4, 0.15), 0.03)
             self.asm.add(f"{side}_head_light", head, finish="lamp")
-            tail = P.rounded_box((back + 0.01, sign * (back_hw - 0.13), tz), (0.08, 0.26, 0.14), 0.025)
+            size = (0.08, 0.34, 0.15) if self.shape.deck is not None else (0.08, 0.2, 0.34)
+            tail = P.rounded_box((back + 0.01, sign * (back_hw - size[1] / 2 + 0.02), tz), size, 0.025)
             self.asm.add(f"{side}_tail_light", tail, finish="lamp")
 
     def bumpers_and_plates(self) -> None:
@@ -194,7 +195,7 @@ class CarBuilder:
             self.asm.body(P.tube((self.x(s), y_in, z - 0.02), (self.x(s) - 0.02, sign * (self.hw + 0.05), z), 0.015, 6),
                           finish="rubber")
             housing = P.rounded_box((self.x(s) - 0.03, (y_in + y_out) / 2 + sign * 0.025, z),
-                                    (0.1, abs(y_out - y_in) - 0.05, 0.15), 0.03)
+                                    (0.12, abs(y_out - y_in) - 0.05, 0.19), 0.035)
             self.asm.add(f"{side}_mirror", housing)
 
 

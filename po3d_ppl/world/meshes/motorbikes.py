@@ -138,11 +138,12 @@ def chopper() -> Assembly:
     m.chain("drive_chain", (-0.12, 0.3), 0.07, (rx, rR), 0.13, 0.15)
     m.asm.add("exhaust_right_s", m.exhaust([(0.05, 0.1, 0.62), (0.12, 0.2, 0.45), (-0.1, 0.22, 0.3),
                                             (-0.5, 0.22, 0.3)], 0.025, 0.045, 0.55)(-1.0), finish="chrome")
-    m.both("footrest_{side}_s", m.peg(0.42, 0.36, 0.12, 0.3, 0.02), finish="rubber")
+    m.both(None, lambda s: P.tube((0.17, 0, 0.33), (0.4, s * 0.13, 0.36), 0.015, 6), finish="chrome")  # mounts
+    m.both("footrest_{side}_s", m.peg(0.4, 0.36, 0.12, 0.3, 0.022), finish="rubber")
     # ape-hanger bars: risers up from the clamp, then out and back
     m.both("handle_{side}", m.bar([(head[0] + 0.02, 0.06, head[1] + 0.02), (head[0] + 0.02, 0.12, 1.22),
                                    (head[0] - 0.04, 0.2, 1.25), (head[0] - 0.14, 0.36, 1.2)]))
-    m.both("mirror_{side}", m.mirror((0.26, 0.26, 1.23), (0.3, 0.3, 1.35), 0.045))
+    m.both("mirror_{side}", m.mirror((0.26, 0.26, 1.23), (0.3, 0.3, 1.35), 0.06))
     m.asm.add("headlight_center", _lamp((head[0] + 0.2, 0, 0.9), 0.09, 0.12), finish="lamp")
     m.asm.add("windscreen", P.hull(np.array([[0.52, 0.17, 0.98], [0.52, -0.17, 0.98], [0.44, 0.2, 1.22],
                                              [0.44, -0.2, 1.22], [0.51, 0.17, 0.98], [0.43, 0.2, 1.22],
@@ -280,7 +281,7 @@ def cruiser() -> Assembly:
         m.asm.body(P.tube((0.62, sign * 0.2, 0.66), (0.5, sign * 0.12, 0.8), 0.015, 6), finish="chrome")
         m.asm.add(f"taillight_{side}", P.rounded_box((-1.09, sign * 0.1, 0.72), (0.05, 0.08, 0.07), 0.015),
                   finish="lamp")
-    m.asm.add("license_plate", P.box((-1.08, 0, 0.52), (0.02, 0.2, 0.12)))
+    m.asm.add("license_plate", P.box((-1.08, 0, 0.52), (0.02, 0.26, 0.15)))
     m.asm.add("fender_front", P.fender((fx, 0, R), R + 0.03, 10, 160, 0.16, 0.02, n=12))
     m.asm.add("fender_back", P.fender((rx, 0, R), R + 0.04, 20, 185, 0.2, 0.02, n=12))
     m.chain("drive_chain", (-0.15, 0.3), 0.07, (rx, R), 0.13, 0.13)
@@ -289,6 +290,9 @@ def cruiser() -> Assembly:
                                                   (-0.55, 0.24, 0.3)], 0.025, 0.05, 0.5)(sign), finish="chrome")
     m.both("footrest_{side}_s", lambda s: P.rounded_box((0.22, s * 0.28, 0.3), (0.26, 0.12, 0.025), 0.01),
            finish="rubber")
+    m.both(None, lambda s: P.tube((0.2, s * 0.02, 0.28), (0.22, s * 0.24, 0.3), 0.015, 6), finish="chrome")
+    # touring saddlebags either side of the rear wheel (not a listed part)
+    m.both(None, lambda s: P.rounded_box((-0.8, s * 0.25, 0.56), (0.42, 0.15, 0.3), 0.05))
     m.both("handle_{side}", m.bar([(head[0] - 0.02, 0.06, head[1] + 0.05), (head[0] - 0.1, 0.25, head[1] + 0.08),
                                    (head[0] - 0.16, 0.37, head[1] + 0.06)]))
     m.both("mirror_{side}", m.mirror((0.5, 0.3, 1.08), (0.5, 0.38, 1.18), 0.05))
