@@ -76,9 +76,9 @@ def render(
 
     from po3d_ppl.errors import InputError
     from po3d_ppl.world.generate import generate_scene
-    from po3d_ppl.world.renderer import false_colour_masks
     from po3d_ppl.world.sampler import SceneConfig
     from po3d_ppl.world.scene_io import save_scene
+    from po3d_ppl.world.shading import false_colour_masks
 
     seed_value = _int_option("--seed", seed, 0, 2**63 - 1)
     size = {"width": _int_option("--width", width, 16, 4096), "height": _int_option("--height", height, 16, 4096)}
