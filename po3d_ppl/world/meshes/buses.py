@@ -170,14 +170,9 @@ class BusBuilder:
         elif self.shape.bonnet is None:  # windscreen and destination display
             self.asm.body(front.end_panel("front", 1.15, H - 0.55, (0.08, 0.0), 0.02), finish="glass")
             self.asm.body(front.end_panel("front", H - 0.48, H - 0.22, (0.35, 0.0), 0.025), finish="glass")
-        else:
-            box = self.bodies[0]
+        else:  # windscreen on the raked face of the passenger box, above the bonnet
             s_box = self.shape.bonnet[0]
-            # windscreen on the face of the passenger box above the bonnet
-            prof = box.profile_at(self.x(s_box))
-            ws = P.box((self.x(s_box) + 0.05, 0, (self.shape.bonnet[1] + 0.3 + H - 0.3) / 2),
-                       (0.08, 2 * prof[:, 0].max() - 0.2, H - 0.6 - self.shape.bonnet[1]))
-            self.asm.body(ws, finish="glass")
+            self.asm.body(front.panel(self.x(s_box - 0.33), self.x(s_box - 0.02), TOP, 0.03, 0.97, 0.03), finish="glass")
             self.asm.body(front.end_panel("front", CLEARANCE + 0.45, self.shape.bonnet[1] - 0.2, (0.3, 0.0), 0.03),
                           finish="rubber")
         self.asm.body(back.end_panel("back", H - 1.1, H - 0.35, (0.15, 0.0), 0.02), finish="glass")

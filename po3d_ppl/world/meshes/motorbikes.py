@@ -234,8 +234,8 @@ def scooter() -> Assembly:
     # handlebar cowl with the headlight, bars, mirrors
     m.asm.body(P.rounded_box((head[0], 0, head[1] + 0.02), (0.18, 0.3, 0.1), 0.04))
     m.asm.add("headlight_center", _lamp((head[0] + 0.1, 0, head[1] + 0.02), 0.055, 0.06), finish="lamp")
-    m.both("handle_{side}", m.bar([(head[0] - 0.02, 0.12, head[1] + 0.03), (head[0] - 0.06, 0.34, head[1] + 0.04)]))
-    m.both("mirror_{side}", m.mirror((head[0] - 0.02, 0.15, head[1] + 0.06), (head[0] - 0.02, 0.26, head[1] + 0.2),
+    m.both("handle_{side}", m.bar([(head[0] - 0.02, 0.12, head[1] + 0.03), (head[0] - 0.07, 0.41, head[1] + 0.04)]))
+    m.both("mirror_{side}", m.mirror((head[0] - 0.02, 0.15, head[1] + 0.06), (head[0] - 0.02, 0.3, head[1] + 0.13),
                                      0.045))
     m.asm.add("taillight_center", P.rounded_box((-0.85, 0, 0.6), (0.05, 0.12, 0.06), 0.015), finish="lamp")
     return m.asm
