@@ -203,13 +203,15 @@ def _hatch_stations(nose: float, hood_front: float, hood: float, roof: float, ta
                     ws: float, rf: float, rb: float, L: float, tumble: float = 0.8) -> tuple[Station, ...]:
     """Stations of a two-box body (hood, cabin running to a near-vertical rear)."""
     return (
-        Station(0.0, nose, nose - 0.06, 0.88, 0.92, 0.1),
-        Station(0.14, hood_front, hood_front - 0.05, 0.95, 1.0, 0.0),
+        Station(0.0, nose, nose - 0.06, 0.86, 0.9, 0.1),
+        Station(0.05, (nose + hood_front) / 2 + 0.02, (nose + hood_front) / 2 - 0.04, 0.92, 0.97, 0.03),
+        Station(0.16, hood_front, hood_front - 0.05, 0.95, 1.0, 0.0),
         Station(ws, hood, hood - 0.04, 0.96, 1.0),
         Station(rf, roof, belt, tumble),
         Station(rb, roof - 0.02, belt, tumble),
         Station(L - 0.12, tail, belt, tumble * 0.98, 1.0),
-        Station(L, tail - 0.05, belt - 0.05, tumble * 0.93, 0.95, 0.08),
+        Station(L - 0.04, tail - 0.02, belt - 0.02, tumble * 0.96, 0.98, 0.03),
+        Station(L, tail - 0.06, belt - 0.05, tumble * 0.92, 0.94, 0.08),
     )
 
 
@@ -221,7 +223,7 @@ def suv() -> Assembly:
         length=L,
         stations=_hatch_stations(0.92, 1.05, 1.17, H, H - 0.1, 1.17, 1.25, 1.95, 4.45, L, 0.84),
         clearance=0.36, wheel_radius=0.39, wheel_width=0.27, axles=(0.95, 3.8),
-        hood=(0.16, 1.2), windshield=(1.28, 1.92), roof=(2.0, 4.45),
+        hood=(0.18, 1.2), windshield=(1.28, 1.92), roof=(2.0, 4.45),
         side_windows=((1.4, 2.45), (2.55, 3.45), (3.55, 4.4)),
         tailgate=(0.62, H - 0.12), tailgate_glass=(1.22, H - 0.2), light_z=(0.88, 1.05),
     )
@@ -234,10 +236,10 @@ def wagon() -> Assembly:
     _, _, H = design_extents("wagon", L)
     shape = CarShape(
         length=L,
-        stations=_hatch_stations(0.68, 0.82, 0.96, H, H - 0.16, 0.97, 1.5, 2.3, 4.35, L, 0.8),
+        stations=_hatch_stations(0.68, 0.82, 0.96, H, H - 0.07, 0.97, 1.5, 2.3, 4.6, L, 0.8),
         clearance=0.2, wheel_radius=0.33, wheel_width=0.23, axles=(0.95, 3.85),
-        hood=(0.16, 1.45), windshield=(1.55, 2.25), roof=(2.35, 4.35),
-        side_windows=((1.7, 2.6), (2.75, 3.6), (3.7, 4.5)),
+        hood=(0.18, 1.45), windshield=(1.55, 2.25), roof=(2.35, 4.62),
+        side_windows=((1.7, 2.6), (2.75, 3.6), (3.7, 4.62)),
         tailgate=(0.5, H - 0.18), tailgate_glass=(1.0, H - 0.24), light_z=(0.66, 0.85),
     )
     return CarBuilder("wagon", shape).build()
@@ -251,7 +253,7 @@ def minivan() -> Assembly:
         length=L,
         stations=_hatch_stations(0.82, 0.95, 1.1, H, H - 0.08, 1.1, 0.75, 1.95, 4.8, L, 0.86),
         clearance=0.24, wheel_radius=0.36, wheel_width=0.24, axles=(0.9, 3.95),
-        hood=(0.16, 0.72), windshield=(0.8, 1.9), roof=(2.0, 4.8),
+        hood=(0.18, 0.72), windshield=(0.8, 1.9), roof=(2.0, 4.8),
         side_windows=((1.4, 2.35), (2.5, 3.5), (3.6, 4.85)),
         tailgate=(0.55, H - 0.12), tailgate_glass=(1.15, H - 0.2), light_z=(0.8, 1.2),
     )
@@ -263,18 +265,20 @@ def sedan() -> Assembly:
     L = 4.8
     _, _, H = design_extents("sedan", L)
     stations = (
-        Station(0.0, 0.7, 0.64, 0.88, 0.92, 0.1),
-        Station(0.14, 0.84, 0.79, 0.95, 1.0),
+        Station(0.0, 0.7, 0.64, 0.86, 0.9, 0.1),
+        Station(0.05, 0.79, 0.73, 0.92, 0.97, 0.03),
+        Station(0.16, 0.84, 0.79, 0.95, 1.0),
         Station(1.5, 0.98, 0.94, 0.96, 1.0),
         Station(2.25, H, 0.98, 0.78),
         Station(3.25, H - 0.03, 0.98, 0.78),
         Station(4.0, 1.03, 0.98, 0.93),
         Station(4.68, 1.01, 0.96, 0.95, 1.0),
-        Station(4.8, 0.94, 0.9, 0.88, 0.95, 0.08),
+        Station(4.76, 0.99, 0.94, 0.92, 0.98, 0.03),
+        Station(4.8, 0.94, 0.9, 0.88, 0.94, 0.08),
     )
     shape = CarShape(
         length=L, stations=stations, clearance=0.2, wheel_radius=0.33, wheel_width=0.23, axles=(0.95, 3.85),
-        hood=(0.16, 1.45), windshield=(1.55, 2.2), roof=(2.3, 3.22), rear_window=(3.3, 3.95), deck=(4.05, 4.68),
+        hood=(0.18, 1.45), windshield=(1.55, 2.2), roof=(2.3, 3.22), rear_window=(3.3, 3.95), deck=(4.05, 4.68),
         side_windows=((1.7, 2.6), (2.75, 3.55)), tailgate=(0.5, 0.9), light_z=(0.66, 0.85),
     )
     return CarBuilder("sedan", shape).build()
@@ -346,8 +350,9 @@ def truck() -> Assembly:
     _, _, H = design_extents("truck", L)
     cab_len = L - bed - 0.04
     stations = (
-        Station(0.0, 1.02, 0.96, 0.88, 0.94, 0.12),
-        Station(0.14, 1.14, 1.09, 0.96, 1.0),
+        Station(0.0, 1.02, 0.96, 0.88, 0.93, 0.12),
+        Station(0.05, 1.1, 1.04, 0.93, 0.98, 0.04),
+        Station(0.16, 1.14, 1.09, 0.96, 1.0),
         Station(1.6, 1.24, 1.2, 0.97, 1.0),
         Station(2.25, H, 1.24, 0.84),
         Station(cab_len - 0.1, H - 0.02, 1.24, 0.84),
@@ -355,7 +360,7 @@ def truck() -> Assembly:
     )
     shape = CarShape(
         length=L, stations=stations, clearance=0.42, wheel_radius=0.41, wheel_width=0.28, axles=(1.0, 4.3),
-        hood=(0.16, 1.55), windshield=(1.65, 2.2), roof=(2.3, cab_len - 0.08),
+        hood=(0.18, 1.55), windshield=(1.65, 2.2), roof=(2.3, cab_len - 0.08),
         side_windows=((1.8, cab_len - 0.1),), back_doors=False, light_z=(0.95, 1.0),
     )
     return PickupBuilder(shape, bed).build()
