@@ -122,9 +122,13 @@ def _temp_path(path: Path) -> Path:
 def atomic_write_bytes(path: Path, data: bytes) -> None:
     """Write ``data`` to ``path`` so that readers see the old file or the whole new one, never a part."""
     tmp = _temp_path(path)
-    with open(tmp, "wb") as f:
-        f.write(data)
-    os.replace(tmp, path)
+    try:
+        with open(tmp, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 def _dumps(data: object) -> str:
@@ -150,6 +154,7 @@ class _JsonListFile:
         os.replace(self.tmp, self.path)
 
     def abort(self) -> None:
+        """Drop the temporary file (a no-op after a successful commit)."""
         self.f.close()
         self.tmp.unlink(missing_ok=True)
 
@@ -221,6 +226,7 @@ def _assemble(root: Path, config: BuildConfig) -> dict:
                                           {"date": "", "version": "1.0", "split": "all", "license": _LICENSE,
                                            "question_set": name}, "questions") for name in sets}
     family_counts = {name: Counter() for name in sets}
+    outputs = (scenes_file, *question_files.values())
     try:
         for index in range(config.scenes):
             work = _read_work(root, index)
@@ -233,12 +239,11 @@ def _assemble(root: Path, config: BuildConfig) -> dict:
                     out.add(public_question(cand, scene["image_index"], scene["image_filename"], scene["split"],
                                             out.count))
                     family_counts[name][f"{cand.template_filename}:{cand.question_family_index}"] += 1
-    except BaseException:
-        for f in (scenes_file, *question_files.values()):
+        for f in outputs:
+            f.commit()
+    finally:
+        for f in outputs:
             f.abort()
-        raise
-    for f in (scenes_file, *question_files.values()):
-        f.commit()
     sizes = split_sizes(config.scenes, config.split_fractions)
     bounds = np.cumsum((0,) + sizes)
     splits = {name: list(range(int(bounds[k]), int(bounds[k + 1]))) for k, name in enumerate(SPLITS)}

@@ -35,13 +35,14 @@ def toy_object(subtype: str = "suv", color: str = "gray", material: str = "rubbe
                position: tuple[float, float, float] = (0.0, 0.0, 0.0), pose_degree: float = 0.0,
                parts: Mapping[str, tuple[str, str]] | None = None, occluded_by: Sequence[int] = (),
                part_occluded_by: Mapping[str, Sequence[int]] | None = None) -> SceneObject:
-    """One object; ``parts`` maps raw part names to (colour, material) of recoloured parts."""
-    offset = 140.0 if ontology.CATEGORY_OF[subtype] == "bicycle" else 50.0
+    """One object; ``parts`` maps raw part names to (colour, material) of recoloured parts, ``occluded_by`` and
+    ``part_occluded_by`` name the occluding objects (largest first)."""
     part_anns = {raw: _annotation(by) for raw, by in (part_occluded_by or {}).items()}
     x, y, z = (float(v) for v in position)
     return SceneObject(
         subtype=subtype, color=color, material=material, size=size,
-        rotation=(offset - pose_degree) % 360.0, position=(x, y, z), pose_degree=float(pose_degree) % 360.0,
+        # our meshes face +x; the toy camera looks along +y, so a yaw of 90 degrees shows the object's back
+        rotation=(90.0 - pose_degree) % 360.0, position=(x, y, z), pose_degree=float(pose_degree) % 360.0,
         parts={raw: PartStyle(c, m) for raw, (c, m) in (parts or {}).items()},
         pixel_coords=(320.0 + 40.0 * x, 240.0 - 10.0 * z, TOY_CAMERA_DISTANCE + y),
         annotation=_annotation(occluded_by), part_annotations=part_anns,
