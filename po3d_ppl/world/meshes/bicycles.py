@@ -35,7 +35,6 @@ class Geometry:
     head_top: tuple[float, float]
     head_bottom: tuple[float, float]
     saddle: tuple[float, float]
-    bars: str
     tube: float = 0.018
     crank: float = 0.17
     crank_angle: float = -35.0
@@ -191,8 +190,7 @@ class BikeBuilder:
 @builder("road")
 def road() -> Assembly:
     g = Geometry(front_axle=0.5, rear_axle=-0.5, wheel_radius=0.34, tyre=0.013, bb=(-0.09, 0.27),
-                 seat_top=(-0.25, 0.8), head_top=(0.34, 0.82), head_bottom=(0.38, 0.68), saddle=(-0.3, 0.92),
-                 bars="drop")
+                 seat_top=(-0.25, 0.8), head_top=(0.34, 0.82), head_bottom=(0.38, 0.68), saddle=(-0.3, 0.92))
     b = BikeBuilder("road", g)
     b.wheel("wheel_front", g.front_axle)
     b.wheel("wheel_back", g.rear_axle)
@@ -208,8 +206,7 @@ def road() -> Assembly:
 @builder("utility")
 def utility() -> Assembly:
     g = Geometry(front_axle=0.55, rear_axle=-0.52, wheel_radius=0.35, tyre=0.02, bb=(-0.08, 0.28),
-                 seat_top=(-0.27, 0.82), head_top=(0.36, 0.9), head_bottom=(0.42, 0.7), saddle=(-0.32, 0.98),
-                 bars="city", step_through=True)
+                 seat_top=(-0.27, 0.82), head_top=(0.36, 0.9), head_bottom=(0.42, 0.7), saddle=(-0.32, 0.98), step_through=True)
     b = BikeBuilder("utility", g)
     b.wheel("wheel_front", g.front_axle)
     b.wheel("wheel_back", g.rear_axle)
@@ -238,8 +235,7 @@ def utility() -> Assembly:
 @builder("mountain")
 def mountain() -> Assembly:
     g = Geometry(front_axle=0.56, rear_axle=-0.5, wheel_radius=0.34, tyre=0.03, bb=(-0.06, 0.31),
-                 seat_top=(-0.22, 0.78), head_top=(0.38, 0.86), head_bottom=(0.44, 0.72), saddle=(-0.27, 0.95),
-                 bars="flat")
+                 seat_top=(-0.22, 0.78), head_top=(0.38, 0.86), head_bottom=(0.44, 0.72), saddle=(-0.27, 0.95))
     b = BikeBuilder("mountain", g)
     b.wheel("wheel_front", g.front_axle)
     b.wheel("wheel_back", g.rear_axle)
@@ -255,8 +251,7 @@ def mountain() -> Assembly:
 @builder("tandem")
 def tandem() -> Assembly:
     g = Geometry(front_axle=0.95, rear_axle=-0.95, wheel_radius=0.34, tyre=0.017, bb=(0.35, 0.28),
-                 seat_top=(0.22, 0.8), head_top=(0.8, 0.88), head_bottom=(0.84, 0.72), saddle=(0.18, 1.0),
-                 bars="flat")
+                 seat_top=(0.22, 0.8), head_top=(0.8, 0.88), head_bottom=(0.84, 0.72), saddle=(0.18, 1.0))
     b = BikeBuilder("tandem", g)
     b.wheel("wheel_front", g.front_axle)
     b.wheel("wheel_back", g.rear_axle)

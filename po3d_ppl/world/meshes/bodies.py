@@ -23,7 +23,6 @@ RIGHT_SIDE = (7, 8)
 LEFT_GLASS = (2, 3)
 RIGHT_GLASS = (6, 7)
 TOP = (3, 4, 5, 6)
-ROOF_FLAT = (4, 5)
 
 
 @dataclass(frozen=True)

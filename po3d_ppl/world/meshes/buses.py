@@ -7,7 +7,7 @@ doors and the rear engine hatch ("trunk") are panels placed on it by height.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -37,7 +37,6 @@ class BusShape:
     #: bonnet: (s where the passenger box starts, bonnet height) for school buses
     bonnet: tuple[float, float] | None = None
     body_half_width: float = BODY_HALF_WIDTH
-    extra: dict = field(default_factory=dict)
 
 
 class BusBuilder:
@@ -117,13 +116,7 @@ class BusBuilder:
                 self.asm.body(P.fender((c[0], sign * (self.hw - 0.02), R), R + 0.06, 5, 175, 0.06, 0.06, n=10),
                               finish="rubber")
 
-    def _openings(self, side: str) -> list[tuple[float, float]]:
-        spans = [(s0, s1) for _, sd, s0, s1 in self.shape.doors if sd == side]
-        spans += [(s - WHEEL_RADIUS - 0.1, s + WHEEL_RADIUS + 0.1) for s, _ in self.shape.axles]
-        return spans
-
     def doors_and_windows(self) -> None:
-        H = self.H
         for name, side, s0, s1 in self.shape.doors:
             top = self.shape.window_rows[0][1]
             self.asm.add(name, self.side_panel(side, s0, s1, CLEARANCE + 0.12, top, 0.035))
@@ -266,7 +259,7 @@ class ArticulatedBuilder(BusBuilder):
 @builder("articulated")
 def articulated() -> Assembly:
     L = 18.0
-    _, W, H = design_extents("articulated", L)
+    H = design_extents("articulated", L)[2]
     shape = BusShape(
         length=L, bodies=((0.0, 10.6), (11.4, L)),
         axles=((2.6, "wheel_front"), (8.9, None), (L - 2.3, "wheel_back")),

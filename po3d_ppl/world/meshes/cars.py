@@ -10,8 +10,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from po3d_ppl.world import ontology
 from po3d_ppl.world.meshes import primitives as P
 from po3d_ppl.world.meshes.assembly import Assembly, design_extents
