@@ -1,8 +1,9 @@
 """An independent oracle for the reasoning engine: enumerate every joint assignment of the latent scene, build a
 concrete ``Scene`` for each, and run the *reference executor* (the question engine's ground-truth semantics).
 
-Nothing here uses the reasoning engine's code paths: posteriors are computed per latent directly from the evidence
-and the priors, and answers come from ``po3d_ppl.questions.executor``. Feasible only for evidence whose latents have
+Nothing here uses the reasoning engine's inference code: posteriors are computed per latent directly from the
+evidence and the priors, and answers come from ``po3d_ppl.questions.executor`` (only the mapping from an
+assignment to a ``Scene`` record is shared with the thresholded baseline). Feasible only for evidence whose latents have
 small supports, which :func:`sparse_random_evidence` produces.
 """
 
@@ -17,16 +18,10 @@ import numpy as np
 import torch
 
 from po3d_ppl.questions.executor import execute
-from po3d_ppl.reasoning.evidence import CERTAIN, NUM_STYLES, ScenePriors, SceneEvidence
+from po3d_ppl.reasoning.evidence import CERTAIN, ScenePriors, SceneEvidence
+from po3d_ppl.reasoning.latent_scene import scene_from_assignment
 from po3d_ppl.world import ontology
-from po3d_ppl.world.scene import (
-    EntityAnnotation,
-    Occlusion,
-    PartStyle,
-    Scene,
-    SceneObject,
-    compute_relationships,
-)
+from po3d_ppl.world.scene import Scene
 
 S = len(ontology.SUBTYPES)
 
@@ -126,39 +121,6 @@ def _latents(ev: SceneEvidence, priors: ScenePriors) -> list[_Latent]:
     return out
 
 
-def _scene(assign: dict, ev: SceneEvidence) -> Scene:
-    n = ev.num_objects
-    alive = [i for i in range(n) if assign[("exists", i)] == 1]
-    new_index = {i: k for k, i in enumerate(alive)}
-    objects = []
-    for i in alive:
-        s = assign[("subtype", i)]
-        sub = ontology.SUBTYPES[s]
-        parts, part_ann = {}, {}
-        for p, raw in enumerate(ontology.PARTS[sub]):
-            state = assign[("part_state", i, s, p)]
-            if state >= 2:
-                style = state - 2
-                parts[raw] = PartStyle(ontology.COLORS[style // 2], ontology.MATERIALS[style % 2])
-            by = tuple(new_index[j] for j in alive if j != i and assign[("part_occludes", i, s, p, j)] == 1)
-            occ = Occlusion(level=1, visible_before=True, occluded_by=by,
-                            occluded=bool(assign[("part_occluded", i, s, p)]))
-            part_ann[raw] = EntityAnnotation(30, 40, (0, 0, 1, 1), occ)
-        by = tuple(new_index[j] for j in alive if j != i and assign[("occludes", i, j)] == 1)
-        occ = Occlusion(level=1, visible_before=True, occluded_by=by, occluded=bool(assign[("occluded", i)]))
-        objects.append(SceneObject(
-            subtype=sub, color=ontology.COLORS[assign[("color", i)]],
-            material=ontology.MATERIALS[assign[("material", i)]], size=ontology.SIZES[assign[("size", i)]],
-            rotation=0.0, position=tuple(float(x) for x in ev.positions[i]),
-            pose_degree=float(ev.pose_support[i, assign[("pose", i)]]), parts=parts,
-            pixel_coords=(0.0, 0.0, float(ev.depths[i])),
-            annotation=EntityAnnotation(500, 520, (0, 0, 1, 1), occ), part_annotations=part_ann))
-    directions = {k: tuple(float(x) for x in v) for k, v in ev.directions.items()}
-    positions = np.array([o.position for o in objects]).reshape(-1, 3)
-    return Scene(objects=tuple(objects), directions=directions,
-                 relationships=compute_relationships(positions, directions))
-
-
 def brute_force(program_json: list[dict], ev: SceneEvidence, priors: ScenePriors = ScenePriors(),
                 max_assignments: int = 200_000) -> tuple[dict, float]:
     """Answer distribution (raw answers -> probability) and invalid mass, by enumerating every assignment."""
@@ -178,8 +140,7 @@ def brute_force(program_json: list[dict], ev: SceneEvidence, priors: ScenePriors
             weight *= lat.probs[k]
         if weight == 0.0:
             continue
-        # part slots of subtypes that this assignment does not choose never matter; fill them from the fixed map
-        result = execute(_scene(assign, ev), program_json)
+        result = execute(scene_from_assignment(assign, ev), program_json)
         if result.valid:
             dist[result.answer] += weight
         else:

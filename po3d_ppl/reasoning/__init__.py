@@ -1,0 +1,35 @@
+"""Reasoning: programs compile to Pyro models over a latent scene; answers are posterior marginals.
+
+Public surface (imported lazily so that the language tools, which only need the registry, start fast):
+
+- :func:`register_operation` / :data:`REGISTRY` - add operations (``po3d_ppl.reasoning.registry``);
+- :class:`SceneEvidence`, :class:`ScenePriors` - the perception -> reasoning contract (``evidence``);
+- :func:`scene_model` - the latent scene as a Pyro program (``scene_model``);
+- :func:`compile_program` -> :class:`CompiledProgram` - a program as a Pyro model with an ``answer`` site;
+- :func:`infer`, :class:`SceneReasoner` -> :class:`AnswerDistribution` - answers by ``exact``, ``sampling``,
+  ``dense``, ``generic``, ``auto`` or the ``thresholded``/``soft`` baselines (``inference``).
+"""
+
+from po3d_ppl.reasoning.registry import REGISTRY, register_operation, register_reference
+
+_LAZY = {
+    "SceneEvidence": "po3d_ppl.reasoning.evidence",
+    "ScenePriors": "po3d_ppl.reasoning.evidence",
+    "scene_model": "po3d_ppl.reasoning.scene_model",
+    "compile_program": "po3d_ppl.reasoning.compiler",
+    "CompiledProgram": "po3d_ppl.reasoning.compiler",
+    "infer": "po3d_ppl.reasoning.inference",
+    "SceneReasoner": "po3d_ppl.reasoning.inference",
+    "METHODS": "po3d_ppl.reasoning.inference",
+    "AnswerDistribution": "po3d_ppl.reasoning.answer",
+}
+
+__all__ = ["REGISTRY", "register_operation", "register_reference", *_LAZY]
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

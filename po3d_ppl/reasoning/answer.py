@@ -1,0 +1,83 @@
+"""``AnswerDistribution``: what every inference method returns, and what calibration studies consume."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+
+from po3d_ppl.world import ontology
+
+
+@dataclass(frozen=True)
+class AnswerDistribution:
+    """Probabilities over answers plus the mass of invalid executions (``unique`` of a set with != 1 member, a
+    query of a missing value).
+
+    Answers are raw program values: subtype names (``'suv'``), raw part names (``'wheel_back_left'``), colours,
+    ``'front'``..., ``True``/``False``, counts. ``probs`` lists every answer with non-zero probability, most
+    probable first. ``error`` bounds the total-variation error of ``probs`` (0 for exact inference; for sampling,
+    three standard errors summed over answers); ``stderr`` gives per-answer standard errors when sampled.
+    """
+
+    probs: dict
+    invalid: float
+    method: str
+    answer_type: str
+    error: float = 0.0
+    stderr: dict = field(default_factory=dict)
+    #: what the method reports about its own cost (samples drawn, tensor sizes...)
+    info: dict = field(default_factory=dict)
+
+    @property
+    def top(self):
+        """The most probable answer (None when the program is most probably invalid)."""
+        best = max(self.probs.items(), key=lambda kv: kv[1], default=(None, 0.0))
+        return best[0] if best[1] >= self.invalid else None
+
+    @property
+    def top_probability(self) -> float:
+        return max(self.probs.values(), default=0.0)
+
+    @property
+    def entropy(self) -> float:
+        """Entropy in nats over the answers and the invalid outcome."""
+        masses = [*self.probs.values(), self.invalid]
+        return -sum(p * math.log(p) for p in masses if p > 0)
+
+    def probability(self, answer) -> float:
+        return self.probs.get(answer, 0.0)
+
+    def words(self, answer) -> str:
+        """How a question would phrase an answer (readable part and shape names)."""
+        if isinstance(answer, str):
+            if answer in ontology.SUBTYPE_WORDS:
+                return ontology.SUBTYPE_WORDS[answer]
+            return ontology.readable_name(answer)
+        return str(answer).lower() if isinstance(answer, bool) else str(answer)
+
+    def to_dict(self) -> dict:
+        return {
+            "method": self.method,
+            "answer_type": self.answer_type,
+            "top": self.top,
+            "probs": [[a, p] for a, p in self.probs.items()],
+            "invalid": self.invalid,
+            "entropy": self.entropy,
+            "error": self.error,
+            "stderr": [[a, s] for a, s in self.stderr.items()],
+            "info": self.info,
+        }
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict())
+
+    def __str__(self) -> str:
+        lines = [f"{self.method}: {self.answer_type} answer, top = {self.top!r}"]
+        for answer, p in list(self.probs.items())[:8]:
+            err = f" ± {self.stderr[answer]:.3f}" if answer in self.stderr else ""
+            lines.append(f"  {self.words(answer):<24} {p:.4f}{err}")
+        if len(self.probs) > 8:
+            lines.append(f"  ... {len(self.probs) - 8} more")
+        lines.append(f"  {'(invalid)':<24} {self.invalid:.4f}")
+        return "\n".join(lines)

@@ -1,0 +1,100 @@
+"""Programs become Pyro models.
+
+``compile_program`` type-checks a program (text, AST, public JSON or an already checked program) and returns a
+:class:`CompiledProgram` whose :meth:`~CompiledProgram.model` is a Pyro model: the scene model's latents, the
+program's operations run on them (vectorised over any enclosing ``pyro.plate``), and a deterministic ``answer``
+site holding the program's output (``values.INVALID`` when the execution is invalid). Every inference method
+answers questions about this model; the exact and sampling engines do so without re-tracing it per sample.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import pyro
+import torch
+
+from po3d_ppl.errors import InputError
+from po3d_ppl.reasoning import values
+from po3d_ppl.reasoning.evidence import ScenePriors, SceneEvidence
+from po3d_ppl.reasoning.execution import run_program
+from po3d_ppl.reasoning.inference.concrete_world import ConcreteWorld
+from po3d_ppl.reasoning.scene_model import scene_model
+
+#: Output types a program may end in (an answer), with their value vocabularies in ``values``.
+ANSWER_TYPES = ("Bool", "Integer", *values.ANSWER_VOCABULARY)
+
+
+def to_typed_program(program):
+    """Accept program text, a ``Program`` AST, a public JSON node list, or a ``TypedProgram``; type-check it."""
+    from po3d_ppl.language import Program, TypedProgram, check_program, parse_program, program_from_json
+
+    if isinstance(program, TypedProgram):
+        return program
+    if isinstance(program, str):
+        program = parse_program(program)
+    elif isinstance(program, (list, tuple)) and not isinstance(program, Program):
+        program = program_from_json(list(program))
+    elif isinstance(program, dict) and "program" in program:
+        program = program_from_json(program["program"])
+    if not isinstance(program, Program):
+        raise InputError("program", f"expected program text, a Program, or a JSON node list, got {type(program).__name__}")
+    return check_program(program)
+
+
+def _object_centric(latents: dict[str, torch.Tensor], evidence: SceneEvidence):
+    """A ``ConcreteWorld`` source reading the scene model's latents (plate layout) object by object."""
+
+    def rank5(t: torch.Tensor) -> torch.Tensor:
+        return t.reshape([1] * (5 - t.dim()) + list(t.shape)) if t.dim() < 5 else t
+
+    def source(name: str) -> torch.Tensor:
+        if name in ("exists", "subtype", "color", "material", "size", "occluded"):
+            return rank5(latents[name])[..., 0, 0, :, 0]
+        if name == "pose_degree":
+            index = rank5(latents["pose"])[..., 0, 0, :, 0].long()
+            support = evidence.pose_support.expand(*index.shape[:-1], *evidence.pose_support.shape)
+            return support.gather(-1, index.unsqueeze(-1)).squeeze(-1)
+        if name == "occludes":
+            return rank5(latents["occludes"])[..., :, 0, :, 0].transpose(-1, -2)
+        subtype = source("subtype").long()
+        if name in ("part_state", "part_occluded"):
+            table = rank5(latents[name])[..., 0, :, :, :]  # [*B, 21, N, P]
+            table = table.expand(*subtype.shape[:-1], *table.shape[-3:])
+            return torch.take_along_dim(table, subtype[..., None, :, None], dim=-3).squeeze(-3)
+        if name == "part_occludes":
+            table = rank5(latents[name])  # [*B, N_j, 21, N_i, P]
+            table = table.expand(*subtype.shape[:-1], *table.shape[-4:])
+            chosen = torch.take_along_dim(table, subtype[..., None, None, :, None], dim=-3).squeeze(-3)
+            return chosen.permute(*range(chosen.dim() - 3), -2, -1, -3)  # [*B, N_i, P, N_j]
+        raise KeyError(name)
+
+    return source
+
+
+@dataclass(frozen=True)
+class CompiledProgram:
+    typed: object  # po3d_ppl.language.TypedProgram
+
+    @property
+    def answer_type(self) -> str:
+        return self.typed.type
+
+    def model(self, evidence: SceneEvidence, priors: ScenePriors = ScenePriors()) -> torch.Tensor:
+        """The program as a Pyro model over the latent scene; its ``answer`` site is the program's output."""
+        latents = scene_model(evidence, priors)
+        batch = tuple(latents["exists"].shape[:-4]) or (1,)  # the enclosing plates (one element without any)
+        world = ConcreteWorld(_object_centric(latents, evidence), batch, evidence.num_objects,
+                              evidence.positions, evidence.depths, evidence.directions)
+        value = run_program(self.typed, world).expand(*batch, 1, 1).reshape(batch)
+        return pyro.deterministic("answer", torch.where(world.valid, value, values.INVALID))
+
+
+def compile_program(program) -> CompiledProgram:
+    """Type-check ``program`` and compile it (see the module docstring)."""
+    typed = to_typed_program(program)
+    if typed.type not in ANSWER_TYPES:
+        raise InputError(
+            "program", f"its result has type {typed.type}; a question must end in a query, count, exist or "
+            "comparison (answer types: " + ", ".join(ANSWER_TYPES) + ")")
+    return CompiledProgram(typed)

@@ -1,0 +1,124 @@
+"""Inference methods over a compiled program and scene evidence.
+
+``SceneReasoner`` holds one scene's evidence and its posterior tables (computed once from the scene model's
+enumerated trace) and answers any number of programs:
+
+- ``exact``: lifted enumeration with pivots and running-state chains (``exact.py``), polynomial in the number of
+  objects;
+- ``dense``: every joint assignment at once (``dense.py``), for small scenes and cross-checks;
+- ``sampling``: vectorised posterior samples (``sampling.py``) with standard errors;
+- ``auto``: ``exact`` unless its tensors would exceed ``exact.MAX_ELEMENTS`` or the program needs a structure it
+  does not support, then ``sampling`` (the reason is recorded in ``info``);
+- ``generic``: Pyro's ``TraceEnum_ELBO.compute_marginals`` on the same factor graph (``generic.py``), a slow
+  reference for benchmarks and cross-checks;
+- ``thresholded`` and ``soft``: the NS-VQA and P-NSVQA baselines (``baselines.py``).
+"""
+
+from __future__ import annotations
+
+from po3d_ppl.errors import UnknownNameError
+from po3d_ppl.reasoning import values
+from po3d_ppl.reasoning.answer import AnswerDistribution
+from po3d_ppl.reasoning.compiler import CompiledProgram, compile_program
+from po3d_ppl.reasoning.evidence import ScenePriors, SceneEvidence
+from po3d_ppl.reasoning.posterior import SitePosteriors, site_posteriors
+
+METHODS = ("auto", "exact", "sampling", "dense", "generic", "thresholded", "soft")
+
+
+class SceneReasoner:
+    """Answers programs about one scene; computes the scene model's posterior tables once."""
+
+    def __init__(self, evidence: SceneEvidence, priors: ScenePriors = ScenePriors()):
+        self.evidence, self.priors = evidence, priors
+        self._posteriors: SitePosteriors | None = None
+
+    @property
+    def posteriors(self) -> SitePosteriors:
+        if self._posteriors is None:
+            self._posteriors = site_posteriors(self.evidence, self.priors)
+        return self._posteriors
+
+    def infer(self, program, method: str = "auto", *, num_samples: int = 4096, seed: int = 0) -> AnswerDistribution:
+        if method not in METHODS:
+            raise UnknownNameError("inference method", method, METHODS)
+        compiled = program if isinstance(program, CompiledProgram) else compile_program(program)
+        run = getattr(self, f"_{method}")
+        return run(compiled, num_samples=num_samples, seed=seed)
+
+    # ---- methods -------------------------------------------------------------------------------------------------
+    def _support(self, compiled: CompiledProgram) -> list:
+        return values.support(compiled.answer_type, self.evidence.num_objects)
+
+    def _distribution(self, compiled, probs, invalid, method, **extra) -> AnswerDistribution:
+        support = self._support(compiled)
+        stderr = extra.pop("stderr", None)
+        ranked = sorted((k for k, p in enumerate(probs.tolist()) if p > 0), key=lambda k: -float(probs[k]))
+        answers = {support[k]: float(probs[k]) for k in ranked}
+        errs = {support[k]: float(stderr[k]) for k in ranked} if stderr is not None else {}
+        error = extra.pop("error", 0.0)
+        return AnswerDistribution(answers, float(invalid), method, compiled.answer_type, error=error, stderr=errs,
+                                  info=extra)
+
+    def _exact(self, compiled, **_):
+        from po3d_ppl.reasoning.inference.exact import exact_distribution
+
+        result = exact_distribution(compiled.typed, self.posteriors, self.evidence, len(self._support(compiled)))
+        return self._distribution(compiled, result.probs, result.invalid, "exact", peak_elements=result.peak_elements)
+
+    def _dense(self, compiled, **_):
+        from po3d_ppl.reasoning.inference.dense import dense_distribution
+
+        probs, invalid, count = dense_distribution(compiled.typed, self.posteriors, self.evidence,
+                                                   len(self._support(compiled)))
+        return self._distribution(compiled, probs, invalid, "dense", assignments=count)
+
+    def _sampling(self, compiled, num_samples: int = 4096, seed: int = 0, **_):
+        from po3d_ppl.reasoning.inference.sampling import sample_distribution
+
+        result = sample_distribution(compiled.typed, self.posteriors, self.evidence, len(self._support(compiled)),
+                                     num_samples=num_samples, seed=seed)
+        error = float(3 * result.stderr.sum()) + 3 * (result.invalid * (1 - result.invalid) / num_samples) ** 0.5
+        return self._distribution(compiled, result.probs, result.invalid, "sampling", stderr=result.stderr,
+                                  error=min(error, 1.0), samples=num_samples)
+
+    def _auto(self, compiled, num_samples: int = 4096, seed: int = 0, **_):
+        from po3d_ppl.reasoning.inference.enum_world import ExactUnsupported
+
+        try:
+            return self._exact(compiled)
+        except ExactUnsupported as reason:
+            dist = self._sampling(compiled, num_samples=num_samples, seed=seed)
+            dist.info["fallback"] = str(reason)
+            return dist
+
+    def _generic(self, compiled, **_):
+        from po3d_ppl.reasoning.inference.generic import generic_distribution
+
+        probs, invalid = generic_distribution(compiled.typed, self.posteriors, self.evidence,
+                                              len(self._support(compiled)))
+        return self._distribution(compiled, probs, invalid, "generic")
+
+    def _thresholded(self, compiled, **_):
+        import torch
+
+        from po3d_ppl.reasoning.inference.baselines import thresholded_answer
+
+        answer, valid = thresholded_answer(compiled.typed, self.posteriors, self.evidence)
+        support = self._support(compiled)
+        probs = torch.zeros(len(support), dtype=torch.float64)
+        if valid:
+            probs[support.index(answer)] = 1.0
+        return self._distribution(compiled, probs, 0.0 if valid else 1.0, "thresholded")
+
+    def _soft(self, compiled, **_):
+        from po3d_ppl.reasoning.inference.baselines import soft_distribution
+
+        probs, invalid = soft_distribution(compiled.typed, self.posteriors, self.evidence, len(self._support(compiled)))
+        return self._distribution(compiled, probs, invalid, "soft")
+
+
+def infer(program, evidence: SceneEvidence, method: str = "auto", *, priors: ScenePriors = ScenePriors(),
+          num_samples: int = 4096, seed: int = 0) -> AnswerDistribution:
+    """The answer distribution of ``program`` (text, AST, JSON node list or compiled) given ``evidence``."""
+    return SceneReasoner(evidence, priors).infer(program, method, num_samples=num_samples, seed=seed)

@@ -1,0 +1,202 @@
+"""The two comparison baselines; the only inference code that does not derive answers from the compiled model.
+
+- ``thresholded`` (NS-VQA style): take the most probable value of every latent, build that one scene and run the
+  question engine's reference executor on it. Certain answers, no notion of doubt.
+- ``soft`` (P-NSVQA style): propagate independent probabilities through the program: a set is a vector of
+  membership probabilities, ``unique`` normalises it into a distribution over objects, queries mix attribute
+  marginals, counts assume independent members. Correlations between steps (the same object's colour filtered
+  twice, the referent of ``unique`` versus the other objects) are ignored, which is exactly what the probabilistic
+  program fixes.
+
+Both implement the built-in operations only (``soft`` raises for an operation it has no rule for).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import torch
+
+from po3d_ppl.errors import Po3dError
+from po3d_ppl.reasoning import values
+from po3d_ppl.reasoning.evidence import DTYPE, STATE_COLOR, STATE_MATERIAL, SceneEvidence
+from po3d_ppl.reasoning.latent_scene import argmax_assignment, scene_from_assignment
+from po3d_ppl.reasoning.posterior import SitePosteriors
+from po3d_ppl.reasoning.world import pose_label_ids, pose_relation_ids
+from po3d_ppl.world import ontology
+from po3d_ppl.world.scene import RELATION_EPS
+
+
+class SoftUnsupported(Po3dError):
+    """The soft baseline has no rule for an operation (user-registered operations, for instance)."""
+
+
+def thresholded_answer(typed, post: SitePosteriors, evidence: SceneEvidence):
+    """(answer or None, valid) from the reference executor on the most probable scene."""
+    from po3d_ppl.language import program_to_json
+    from po3d_ppl.questions.executor import execute
+
+    scene = scene_from_assignment(argmax_assignment(post), evidence)
+    result = execute(scene, program_to_json(typed.program))
+    return result.answer, result.valid
+
+
+# ---- soft (P-NSVQA) --------------------------------------------------------------------------------------------
+
+
+class _Marginals:
+    """Per-object and per-part marginal probabilities, the soft executor's whole view of the scene."""
+
+    def __init__(self, post: SitePosteriors, evidence: SceneEvidence):
+        p = post.probs
+        self.n = n = evidence.num_objects
+        self.exists = p["exists"][:, 1]
+        self.subtype, self.color, self.material, self.size = p["subtype"], p["color"], p["material"], p["size"]
+        self.pose_probs, self.pose_degree = p["pose"], evidence.pose_support  # [N, K]
+        labels = pose_label_ids(evidence.pose_support)  # [N, K]
+        self.pose_label = torch.stack([(p["pose"] * (labels == d)).sum(-1) for d in range(len(ontology.POSES))], -1)
+        self.occluded = p["occluded"][:, 1]
+        self.occludes = p["occludes"][..., 1] * (1 - torch.eye(n, dtype=DTYPE))  # [i, j]: i occluded by j
+        sub = self.subtype  # [N, 21]
+        names = values.subtype_part_names()  # [21, P]
+        self.part_valid = torch.einsum("ns,sp->np", sub, (names >= 0).to(DTYPE))
+        self.part_name = torch.einsum("ns,spr->npr", sub,
+                                      torch.nn.functional.one_hot(names.clamp(min=0), len(ontology.RAW_PART_NAMES))
+                                      .to(DTYPE) * (names >= 0).unsqueeze(-1))
+        state = torch.einsum("ns,nspk->npk", sub, p["part_state"])  # [N, P, 18]
+        self.part_color = torch.stack([(state * (STATE_COLOR == c)).sum(-1) for c in range(len(ontology.COLORS))], -1)
+        self.part_material = torch.stack([(state * (STATE_MATERIAL == m)).sum(-1)
+                                          for m in range(len(ontology.MATERIALS))], -1)
+        self.part_recoloured = self.part_color.sum(-1) * self.part_valid
+        self.part_occluded = torch.einsum("ns,nsp->np", sub, p["part_occluded"][..., 1]) * self.part_valid
+        self.part_occludes = torch.einsum("ns,nspj->npj", sub, p["part_occludes"][..., 1])  # [N, P, N_j]
+        self.positions, self.depths, self.directions = evidence.positions, evidence.depths, evidence.directions
+
+
+def _normalise(weights: torch.Tensor) -> torch.Tensor:
+    total = weights.sum()
+    return weights / total if total > 0 else torch.zeros_like(weights)
+
+
+def _poisson_binomial(p: torch.Tensor, size: int) -> torch.Tensor:
+    dist = torch.zeros(size + 1, dtype=DTYPE)
+    dist[0] = 1.0
+    for q in p.flatten():
+        dist = torch.cat([dist[:1] * (1 - q), dist[1:] * (1 - q) + dist[:-1] * q])
+    return dist
+
+
+def _soft_rules(m: _Marginals) -> dict[tuple[str, tuple[str, ...]], Callable]:
+    """Soft semantics per (operation, input types)."""
+    n = m.n
+    not_self = 1 - torch.eye(n, dtype=DTYPE)
+    dist_over = lambda table: lambda x: x @ table  # noqa: E731  object distribution -> value distribution
+    shape_match = values.shape_match_table().to(DTYPE)  # [values, 21]
+    part_match = values.partname_match_table()[:, :-1].to(DTYPE)  # [values, 85]
+
+    def related(relation: str):
+        if relation in ("closer", "farther"):
+            offset = m.depths.unsqueeze(0) - m.depths.unsqueeze(1)  # [k, j] = d_j - d_k
+            offset = offset if relation == "farther" else -offset
+        else:
+            proj = m.positions @ m.directions[relation]
+            offset = proj.unsqueeze(0) - proj.unsqueeze(1)
+        return (offset > RELATION_EPS).to(DTYPE) * not_self
+
+    def same(table):
+        return lambda x: m.exists * (x @ ((table @ table.T) * not_self))
+
+    def pose_relation(code: int):
+        rel = (pose_relation_ids(m.pose_degree[:, None, :, None], m.pose_degree[None, :, None, :]) == code)
+        valid = (pose_label_ids(m.pose_degree) != values.INVALID).to(DTYPE)  # reference objects [k, K]
+        joint = torch.einsum("ka,jb,ka,kjab->kj", m.pose_probs, m.pose_probs, valid, rel.to(DTYPE)) * not_self
+        return lambda x: m.exists * (x @ joint)
+
+    def compare(op):
+        def rule(a, b):
+            p = sum(float(a[u] * b[v]) for u in range(len(a)) for v in range(len(b)) if op(u, v))
+            return torch.tensor([1 - p, p], dtype=DTYPE)
+        return rule
+
+    rules = {
+        ("scene", ()): lambda: m.exists,
+        ("filter_color", ("ObjectSet",)): lambda s, v: s * m.color[:, ontology.COLORS.index(v)],
+        ("filter_material", ("ObjectSet",)): lambda s, v: s * m.material[:, ontology.MATERIALS.index(v)],
+        ("filter_size", ("ObjectSet",)): lambda s, v: s * m.size[:, ontology.SIZES.index(v)],
+        ("filter_shape", ("ObjectSet",)): lambda s, v: s * (m.subtype @ shape_match[ontology.SHAPE_VALUES.index(v)]),
+        ("filter_pose", ("ObjectSet",)):
+            lambda s, v: s * m.pose_label[:, ontology.POSES.index(v.removesuffix("_pose"))],
+        ("unique", ("ObjectSet",)): _normalise,
+        ("unique", ("PartSet",)): _normalise,
+        ("relate", ("Object",)): lambda x, v: m.exists * (x @ related(v)),
+        ("union", ("ObjectSet", "ObjectSet")): lambda a, b: 1 - (1 - a) * (1 - b),
+        ("intersect", ("ObjectSet", "ObjectSet")): lambda a, b: a * b,
+        ("union", ("PartSet", "PartSet")): lambda a, b: 1 - (1 - a) * (1 - b),
+        ("intersect", ("PartSet", "PartSet")): lambda a, b: a * b,
+        ("count", ("ObjectSet",)): lambda s: _poisson_binomial(s, n),
+        ("exist", ("ObjectSet",)): lambda s: torch.stack([torch.prod(1 - s), 1 - torch.prod(1 - s)]),
+        ("exist", ("PartSet",)): lambda s: torch.stack([torch.prod(1 - s), 1 - torch.prod(1 - s)]),
+        ("query_color", ("Object",)): dist_over(m.color),
+        ("query_material", ("Object",)): dist_over(m.material),
+        ("query_size", ("Object",)): dist_over(m.size),
+        ("query_shape", ("Object",)): dist_over(m.subtype),
+        ("query_pose", ("Object",)): dist_over(m.pose_label),
+        ("same_color", ("Object",)): same(m.color),
+        ("same_material", ("Object",)): same(m.material),
+        ("same_size", ("Object",)): same(m.size),
+        ("same_shape", ("Object",)): same(m.subtype),
+        ("same_pose", ("Object",)): pose_relation(0),
+        ("vertical_pose", ("Object",)): pose_relation(1),
+        ("opposite_pose", ("Object",)): pose_relation(2),
+        ("equal_integer", ("Integer", "Integer")): compare(lambda u, v: u == v),
+        ("less_than", ("Integer", "Integer")): compare(lambda u, v: u < v),
+        ("greater_than", ("Integer", "Integer")): compare(lambda u, v: u > v),
+        ("object2part", ("ObjectSet",)): lambda s: s.unsqueeze(-1) * m.part_recoloured,
+        ("object2part", ("Object",)): lambda x: x.unsqueeze(-1) * m.part_recoloured,
+        ("object2part_all", ("ObjectSet",)):
+            lambda s: s.unsqueeze(-1) * (1 - (1 - m.part_recoloured) * (1 - m.part_occluded)),
+        ("object2part_all", ("Object",)):
+            lambda x: x.unsqueeze(-1) * (1 - (1 - m.part_recoloured) * (1 - m.part_occluded)),
+        ("part2object", ("PartSet",)): lambda t: 1 - torch.prod(1 - t, -1),
+        ("part2object", ("Part",)): lambda y: y.sum(-1),
+        ("partfilter_color", ("PartSet",)): lambda t, v: t * m.part_color[..., ontology.COLORS.index(v)],
+        ("partfilter_material", ("PartSet",)): lambda t, v: t * m.part_material[..., ontology.MATERIALS.index(v)],
+        ("partfilter_size", ("PartSet",)):
+            lambda t, v: t * m.part_recoloured * m.size[:, ontology.SIZES.index(v)].unsqueeze(-1),
+        ("partfilter_partname", ("PartSet",)):
+            lambda t, v: t * (m.part_name @ part_match[ontology.PARTNAME_VALUES.index(v)]),
+        ("partquery_color", ("Part",)): lambda y: torch.einsum("np,npc->c", y, m.part_color),
+        ("partquery_material", ("Part",)): lambda y: torch.einsum("np,npc->c", y, m.part_material),
+        ("partquery_size", ("Part",)): lambda y: torch.einsum("np,np,nc->c", y, m.part_recoloured, m.size),
+        ("partquery_partname", ("Part",)): lambda y: torch.einsum("np,npr->r", y, m.part_name),
+        ("filter_occludee", ("ObjectSet",)): lambda s: s * m.occluded,
+        ("partfilter_occludee", ("PartSet",)): lambda t: t * m.part_occluded,
+        ("partquery_occlusion", ("Part",)):
+            lambda y: torch.stack([(y * (1 - m.part_occluded)).sum(), (y * m.part_occluded).sum()]),
+        ("relate_occluded", ("Object",)): lambda x: m.exists * (x @ m.occludes),
+        ("relate_occluding", ("Object",)): lambda x: m.exists * (m.occludes @ x),
+        ("relate_occluding_part", ("Object",)): lambda x: m.part_valid * (m.part_occludes @ x),
+        ("relate_part_occluded", ("Part",)): lambda y: m.exists * torch.einsum("np,npj->j", y, m.part_occludes),
+    }
+    for t in ("Color", "Material", "Size", "Shape"):
+        rules[(f"equal_{t.lower()}", (t, t))] = lambda a, b: torch.stack([1 - (a * b).sum(), (a * b).sum()])
+    return rules
+
+
+def soft_distribution(typed, post: SitePosteriors, evidence: SceneEvidence, num_values: int) -> tuple[torch.Tensor, float]:
+    """Answer probabilities per id and the invalid mass under independent-probability propagation."""
+    rules = _soft_rules(_Marginals(post, evidence))
+    results = []
+    for node in typed.nodes:
+        op = node.operation
+        rule = rules.get((op.name, op.inputs))
+        if rule is None:
+            raise SoftUnsupported(f"the soft baseline has no rule for {op.name}{op.signature}")
+        args = [results[i] for i in node.node.inputs]
+        if node.node.value is not None:
+            args.append(node.node.value)
+        results.append(rule(*args))
+    answer = results[-1].to(DTYPE).reshape(-1)
+    probs = torch.zeros(num_values, dtype=DTYPE)
+    probs[: answer.shape[0]] = answer[:num_values]
+    return probs, float(max(0.0, 1.0 - probs.sum()))
