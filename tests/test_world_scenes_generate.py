@@ -10,15 +10,7 @@ import pytest
 from po3d_ppl.errors import InputError
 from po3d_ppl.world import ontology, rle
 from po3d_ppl.world.generate import GenerationError, generate_scene
-from po3d_ppl.world.sampler import (
-    ObjectSpec,
-    SceneConfig,
-    canonical_bounds,
-    footprint_corners,
-    footprints_overlap,
-    height_range,
-    sample_objects,
-)
+from po3d_ppl.world.sampler import ObjectSpec, SceneConfig, intersects, sample_objects
 from po3d_ppl.world.scene import compute_relationships
 from po3d_ppl.world.scene_io import dumps, scene_from_public, scene_to_public
 
@@ -96,14 +88,19 @@ def test_layouts_never_intersect():
         if specs is None:
             continue
         for a, b in itertools.combinations(specs, 2):
-            ba, bb = canonical_bounds(a.subtype), canonical_bounds(b.subtype)
-            za, zb = height_range(a, ba), height_range(b, bb)
-            if za[1] < zb[0] or zb[1] < za[0]:
-                continue
-            assert not footprints_overlap(footprint_corners(a, ba, config.footprint_margin),
-                                          footprint_corners(b, bb, config.footprint_margin)[None])[0]
+            assert not intersects(a, b, config.footprint_margin)
             checked += 1
     assert checked > 50
+
+
+def test_intersection_test_detects_overlaps():
+    car = ObjectSpec("sedan", "red", "rubber", "large", 0.0, 0.0, 0.0)
+    assert intersects(car, ObjectSpec("suv", "red", "rubber", "large", 90.0, 1.0, 0.5), 0.1)  # crossing
+    assert not intersects(car, ObjectSpec("suv", "red", "rubber", "large", 0.0, 0.0, 2.0), 0.1)  # side by side
+    assert not intersects(car, ObjectSpec("suv", "red", "rubber", "large", 0.0, 0.0, 1.3), 0.0)  # 5 cm apart
+    assert intersects(car, ObjectSpec("suv", "red", "rubber", "large", 0.0, 0.0, 1.3), 0.1)  # within the margin
+    jet = ObjectSpec("jet", "red", "rubber", "small", 0.0, 0.0, 0.0, elevation=1.5)
+    assert not intersects(car, jet, 0.1)  # flies above the car
 
 
 def test_elevated_aeroplanes_fly():

@@ -57,7 +57,6 @@ def _entity(visible: np.ndarray, present: np.ndarray, geo: np.ndarray, view: Sol
     n_visible, n_hidden = int(np.count_nonzero(visible)), int(np.count_nonzero(hidden))
     counts = np.bincount(geo[hidden].astype(np.int64)) if n_hidden else np.zeros(0, np.int64)
     overlaps = {int(j): int(c) for j, c in enumerate(counts) if c > 0}
-    h, w = visible.shape
 
     def to_flat(mask: np.ndarray) -> np.ndarray:
         rows, cols = np.nonzero(mask)
