@@ -17,6 +17,7 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields
 from functools import cache
+from numbers import Integral, Real
 
 import numpy as np
 
@@ -65,9 +66,10 @@ class SceneConfig:
         for f in fields(self):
             value = getattr(self, f.name)
             if f.type == "int":
-                need(isinstance(value, int) and not isinstance(value, bool), f.name, "must be an integer")
+                need(isinstance(value, Integral) and not isinstance(value, bool), f.name, "must be an integer")
+                object.__setattr__(self, f.name, int(value))
             elif f.type == "float":
-                need(isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value),
+                need(isinstance(value, Real) and not isinstance(value, bool) and math.isfinite(value),
                      f.name, "must be a finite number")
             elif f.type == "bool":
                 need(isinstance(value, bool), f.name, "must be true or false")
