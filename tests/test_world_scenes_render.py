@@ -141,3 +141,24 @@ def test_recoloured_parts_render_in_their_colour():
     red_minus_blue = lambda m: float((r.image[m][:, 0].astype(int) - r.image[m][:, 2]).mean())  # noqa: E731
     assert roof.sum() > 100 and red_minus_blue(roof) > 60 > abs(red_minus_blue(body))
     assert dict(r.scene.objects[0].parts) == {"roof": PartStyle("yellow", "rubber")}
+
+
+def test_per_object_casting_matches_a_world_space_scene_cast():
+    """Objects cast alone in their own frames and z-buffered = one cast of the world-space scene."""
+    import trimesh
+
+    from po3d_ppl.world.meshes import vehicle_mesh
+    from po3d_ppl.world.raycast import RayCaster, camera_rays
+    from po3d_ppl.world.renderer import place_meshes, render_geometry
+
+    specs = [BUS, CAR, ObjectSpec("chopper", "blue", "metal", "large", 200.0, 2.5, 1.5, parts={}),
+             ObjectSpec("biplane", "gray", "rubber", "small", 30.0, -2.0, -2.0, elevation=1.0, parts={})]
+    meshes = place_meshes(specs)
+    gbuffer, _ = render_geometry(meshes, CAMERA)
+    world = [trimesh.Trimesh(m.vertices, vehicle_mesh(m.subtype).mesh.faces, process=False) for m in meshes]
+    hits = RayCaster(world).cast(*camera_rays(CAMERA))
+    objects = hits.geometry >= 0
+    assert objects.sum() > 20000
+    assert (hits.geometry != gbuffer.geometry).sum() <= 0.001 * objects.sum()
+    same = objects & (hits.geometry == gbuffer.geometry)
+    assert np.allclose(hits.distance[same], gbuffer.distance[same], rtol=1e-4, atol=1e-4)
