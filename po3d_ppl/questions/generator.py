@@ -170,7 +170,7 @@ class SceneQuestionGenerator:
     """Generates candidate questions of any family over one scene, sharing the scene's filter denotations."""
 
     def __init__(self, scene: Scene | SceneContext, seed: int, *, redundancy: float = 1.0,
-                 max_candidates: int = 3, budget: int = 300):
+                 max_candidates: int = 3, budget: int = 150):
         if not -1.0 <= redundancy <= 1.0:
             raise ValueError(f"redundancy must be in [-1, 1], got {redundancy}")
         self.ctx = scene if isinstance(scene, SceneContext) else SceneContext(scene)
@@ -192,39 +192,45 @@ class SceneQuestionGenerator:
         a NOT-NULL slot counts even though the smaller key is not allowed: the pose in "the car that faces left"
         must be what singles the car out.
         """
-        cache_key = (step, within, relational)
+        cache_key = (id(step), within, relational)  # steps live as long as the _plan cache
         found = self._options.get(cache_key)
         if found is not None:
             return found
         index = self.index
         scene_keys = index.keys(step.part_level, step.slots, step.forced_null)
-        if step.aggregate in ("count", "exist"):
+        aggregate = step.aggregate
+        if aggregate in ("count", "exist"):
             outs = {k: den & within for k, den in scene_keys.items()}
             outs.update(self._empty_keys(step, outs))
         else:
             outs = index.keys(step.part_level, step.slots, step.forced_null, within)
-        check_scene = relational and step.aggregate in (None, "unique")
+        check_scene = relational and aggregate in (None, "unique")
+        nonnull = tuple(s for s, need in enumerate(step.forced_nonnull) if need)
+        groups = step.groups
+        null_key = (None,) * len(step.slots) if step.part_level else None
         allowed: dict[Key, int] = {}
         for key, out in outs.items():
-            if any(need and key[s] is None for s, need in enumerate(step.forced_nonnull)):
+            if nonnull and any(key[s] is None for s in nonnull):
                 continue
-            if any(all(key[s] is None for s in g) for g in step.groups):
+            if groups and any(all(key[s] is None for s in g) for g in groups):
                 continue
-            if step.part_level and all(v is None for v in key):
-                continue
-            if check_scene and scene_keys[key].bit_count() <= 1:
+            if key == null_key or (check_scene and scene_keys[key].bit_count() <= 1):
                 continue
             allowed[key] = out
         minimal, redundant = [], []
         for key, out in allowed.items():
-            if (step.aggregate == "unique" and out.bit_count() != 1) or (step.aggregate is None and not out):
+            if aggregate == "unique":
+                if out.bit_count() != 1:
+                    continue
+            elif aggregate is None and not out:
                 continue
-            # a NOT-NULL slot must also be needed: compare with the (disallowed) key without it
-            if any(v is not None and (outs if step.forced_nonnull[s] else allowed).get(key[:s] + (None,) + key[s + 1:])
-                   == out for s, v in enumerate(key)):
-                redundant.append((key, out))
-            else:
-                minimal.append((key, out))
+            needed = True
+            for s, v in enumerate(key):
+                # a NOT-NULL slot must also be needed: compare with the (disallowed) key without it
+                if v is not None and (outs if s in nonnull else allowed).get(key[:s] + (None,) + key[s + 1:]) == out:
+                    needed = False
+                    break
+            (minimal if needed else redundant).append((key, out))
         found = self._options[cache_key] = (tuple(minimal), tuple(redundant))
         return found
 
