@@ -24,6 +24,7 @@ chooses among them to balance answers across a whole dataset.
 
 from __future__ import annotations
 
+import dataclasses
 import zlib
 from dataclasses import dataclass
 from functools import cache
@@ -106,6 +107,8 @@ class _FilterStep:
     forced_null: tuple[bool, ...]
     forced_nonnull: tuple[bool, ...]
     groups: tuple[tuple[int, ...], ...]
+    #: Equal for steps that allow the same keys (whatever family they belong to), so they share cached options.
+    options_id: int = -1
 
 
 @dataclass(frozen=True)
@@ -115,6 +118,9 @@ class _Plan:
     cross_groups: tuple[tuple[str, ...], ...]
     neq: tuple[tuple[str, str], ...]
     out_neq_at: dict[int, tuple[tuple[int, int], ...]]
+
+
+_OPTION_IDS: dict[tuple, int] = {}
 
 
 @cache
@@ -137,9 +143,11 @@ def _plan(filename: str, index: int) -> _Plan:
             emit = PART_SLOTS if part_level else OBJECT_SLOTS
             groups = tuple(tuple(side.index(p) for p in g) for g in by_type.get("NOT_ALL_NULL", [])
                            if set(g) <= set(side))
-            steps.append(_FilterStep(part_level, FILTER_KINDS[kind][1], relation, tuple(side), slots,
-                                     tuple(emit[s] for s in slots), tuple(p in nulls for p in side),
-                                     tuple(p in nonnull for p in side), groups))
+            step = _FilterStep(part_level, FILTER_KINDS[kind][1], relation, tuple(side), slots,
+                               tuple(emit[s] for s in slots), tuple(p in nulls for p in side),
+                               tuple(p in nonnull for p in side), groups)
+            signature = (part_level, step.aggregate, slots, step.forced_null, step.forced_nonnull, groups)
+            steps.append(dataclasses.replace(step, options_id=_OPTION_IDS.setdefault(signature, len(_OPTION_IDS))))
         else:
             steps.append(REGISTRY.resolve(kind, tuple(tmpl.node_types[i] for i in node.get("inputs", []))))
         placed.append(set(node.get("side_inputs", [])))
@@ -192,7 +200,7 @@ class SceneQuestionGenerator:
         a NOT-NULL slot counts even though the smaller key is not allowed: the pose in "the car that faces left"
         must be what singles the car out.
         """
-        cache_key = (id(step), within, relational)  # steps live as long as the _plan cache
+        cache_key = (step.options_id, within, relational)
         found = self._options.get(cache_key)
         if found is not None:
             return found
@@ -296,14 +304,16 @@ class _Search:
         del self.nodes[length:], self.outputs[length:], self.types[length:]
 
     def _constraints_ok(self, t: int) -> bool:
-        a = self.assign
-        for group in self.plan.cross_groups:
+        a, plan = self.assign, self.plan
+        for group in plan.cross_groups:
             if all(p in a for p in group) and all(a[p] is None for p in group):
                 return False
-        for p, q in self.plan.neq:
+        for p, q in plan.neq:
             if a.get(p) is not None and a.get(p) == a.get(q):
                 return False
-        for i, j in self.plan.out_neq_at.get(t, ()):
+        if t not in plan.out_neq_at:
+            return True
+        for i, j in plan.out_neq_at[t]:
             pi, pj = self.tmap[i], self.tmap[j]
             if _clash(self.outputs[pi], self.types[pi], self.outputs[pj], self.types[pj]):
                 return False
