@@ -28,7 +28,7 @@ from po3d_ppl.language.typecheck import TypedNode, TypedProgram, check_program
 __all__ = [
     "Node", "Program", "Span", "TypedNode", "TypedProgram",
     "parse_program", "check_program", "program_from_json", "program_to_json", "program_to_text",
-    "program_to_tokens", "program_from_tokens",
+    "program_to_tokens", "program_from_tokens", "QuestionParser",
     "ProgramError", "ProgramSyntaxError", "ProgramStructureError", "ProgramArityError", "ProgramTypeError",
     "ProgramValueError", "UnknownProgramNameError",
 ]

@@ -1,0 +1,168 @@
+"""``po3d parse``, ``po3d train parser``, ``po3d eval parser``: the question parser on the command line."""
+
+from __future__ import annotations
+
+import json
+import shlex
+import sys
+from pathlib import Path
+
+import typer
+
+
+def parse(
+    question: str = typer.Argument(..., help="The question, in quotes."),
+    n: int = typer.Option(1, "--n", min=1, help="How many programs to return (n-best)."),
+    beam: int = typer.Option(5, "--beam", min=1, help="Beam width (at least --n is used)."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON (text, tokens, public JSON, probabilities)."),
+    model_dir: Path = typer.Option(None, "--model-dir", help="Directory with the parser files (default: models/)."),
+) -> None:
+    """Parse a question into its n most probable programs, with probabilities and unknown words."""
+    from rich.console import Console
+
+    from po3d_ppl.language import QuestionParser, program_to_json, program_to_text
+
+    result = QuestionParser.load(model_dir).parse(question, n=n, beam=beam)
+    if as_json:
+        print(json.dumps({
+            "question": question,
+            "unknown_words": list(result.unknown_words),
+            "programs": [{"program": program_to_text(c.program), "probability": c.probability,
+                          "log_prob": c.log_prob, "tokens": c.tokens, "json": program_to_json(c.program)}
+                         for c in result.candidates],
+        }, indent=2))
+        return
+    console = Console()
+    if result.unknown_words:
+        console.print("unknown words (read as <unk>): " + ", ".join(result.unknown_words), style="yellow",
+                      markup=False, highlight=False)
+    for rank, candidate in enumerate(result.candidates, 1):
+        console.print(f"[bold]#{rank}[/]  p = {candidate.probability:.4f}", highlight=False)
+        console.print(program_to_text(candidate.program, style="pipeline"), markup=False, highlight=False,
+                      soft_wrap=True)
+
+
+def train_parser_command(
+    data: Path = typer.Option(..., "--data", help="Dataset directory from `po3d dataset build`."),
+    seed: int = typer.Option(0, "--seed", help="Seed for initialisation, shuffling and dropout."),
+    epochs: int = typer.Option(6, "--epochs", min=1, help="Passes over the training split."),
+    batch_size: int = typer.Option(64, "--batch-size", min=1),
+    lr: float = typer.Option(2e-3, "--lr", help="Peak learning rate (one-cycle schedule)."),
+    hidden: int = typer.Option(128, "--hidden", min=8, help="LSTM state size."),
+    embed: int = typer.Option(64, "--embed", min=8, help="Word and token embedding size."),
+    max_steps: int = typer.Option(None, "--max-steps", min=1, help="Stop after this many steps (smoke tests)."),
+    out: Path = typer.Option(None, "--out", help="Where to write the model files (default: models/)."),
+    device: str = typer.Option("cpu", "--device", help="torch device, e.g. cpu or cuda."),
+    threads: int = typer.Option(1, "--threads", min=1,
+                                help="torch CPU threads. The model is small: more threads help little and "
+                                     "slow training down badly when other processes share the cores."),
+) -> None:
+    """Train the question parser on a dataset's train split (val split for model selection)."""
+    import dataclasses
+    import time
+
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from po3d_ppl.errors import InputError
+    from po3d_ppl.language.seq2seq.data import load_examples
+    from po3d_ppl.language.seq2seq.model_io import MODEL_NAME, save_parser
+    from po3d_ppl.language.seq2seq.train import TrainConfig, train_parser
+    from po3d_ppl.language.typecheck import default_registry
+    from po3d_ppl.model_store import models_dir, write_entry
+
+    import torch
+
+    torch.set_num_threads(threads)
+    console = Console()
+    registry = default_registry()
+    train = load_examples(data, "train")
+    try:
+        validation = load_examples(data, "val")
+    except InputError:  # a dataset without val questions: keep the last epoch
+        validation = []
+    config = TrainConfig(seed=seed, epochs=epochs, batch_size=batch_size, lr=lr, hidden=hidden, embed=embed,
+                         max_steps=max_steps)
+    console.print(f"training on {len(train)} questions, validating on {len(validation)}", highlight=False)
+    start = time.perf_counter()
+    with Progress(TextColumn("[bold]train parser"), BarColumn(), MofNCompleteColumn(),
+                  TextColumn("epoch {task.fields[epoch]} loss {task.fields[loss]:.4f}"), TimeRemainingColumn(),
+                  console=console) as bar:
+        task = bar.add_task("train", total=None, epoch=0, loss=float("nan"))
+
+        def progress(step: int, total: int, info: dict) -> None:
+            bar.update(task, completed=step, total=total, epoch=info["epoch"], loss=info["loss"])
+
+        trained = train_parser(train, config, registry, validation, device=device, progress=progress)
+    seconds = time.perf_counter() - start
+    directory = Path(out) if out is not None else models_dir()
+    files = save_parser(trained, directory)
+    data_manifest = _dataset_manifest(data)
+    history = trained.history
+    metrics = {"train_questions": len(train), "val_questions": len(validation), "train_seconds": round(seconds, 1),
+               "history": history}
+    if history and "val_exact_match" in history[-1]:
+        metrics["val_exact_match"] = max(h["val_exact_match"] for h in history)
+    entry = write_entry(MODEL_NAME, files, directory,
+                        command="po3d " + shlex.join(sys.argv[1:]),
+                        data_seed=data_manifest.get("seed"), data_config=data_manifest.get("config"),
+                        train_config=dataclasses.asdict(config), metrics=metrics)
+    size = sum(f["bytes"] for f in entry["files"].values())
+    console.print(f"wrote {', '.join(str(f) for f in files)} ({size / 1e6:.2f} MB) in {seconds:.0f} s; "
+                  f"val exact match {metrics.get('val_exact_match', float('nan')):.4f}", highlight=False)
+
+
+def eval_parser_command(
+    data: Path = typer.Option(..., "--data", help="Dataset directory from `po3d dataset build`."),
+    split: str = typer.Option("test", "--split", help="train, val or test."),
+    json_out: Path = typer.Option(None, "--json", help="Write the full report (per file and family) here."),
+    beam: int = typer.Option(5, "--beam", min=1, help="Beam width of the decoder (top-1 is scored)."),
+    model_dir: Path = typer.Option(None, "--model-dir", help="Directory with the parser files (default: models/)."),
+    threads: int = typer.Option(1, "--threads", min=1, help="torch CPU threads."),
+) -> None:
+    """Exact match of the parser's best program against the dataset's programs, overall, per file and family."""
+    import torch
+    from rich.console import Console
+    from rich.table import Table
+
+    from po3d_ppl.language import QuestionParser
+    from po3d_ppl.language.seq2seq.data import load_examples
+    from po3d_ppl.language.seq2seq.train import evaluate
+
+    torch.set_num_threads(threads)
+    parser = QuestionParser.load(model_dir)
+    examples = load_examples(data, split)
+
+    def predict(batch):
+        return [parser.parse(e.question, n=1, beam=beam).best.tokens for e in batch]
+
+    report = evaluate(parser.trained, examples, parser.registry, predict=predict)
+    report.update({"data": str(data), "split": split, "beam": beam,
+                   "data_seed": _dataset_manifest(data).get("seed")})
+    table = Table(title=f"exact match on {data} [{split}]")
+    for col in ("question file", "questions", "exact match"):
+        table.add_column(col, justify="left" if col == "question file" else "right")
+    for name, row in report["per_file"].items():
+        table.add_row(name, str(row["count"]), f"{row['exact_match']:.4f}")
+    table.add_row("[bold]all", str(report["count"]), f"[bold]{report['exact_match']:.4f}")
+    console = Console()
+    console.print(table)
+    worst = sorted(report["per_family"].items(), key=lambda kv: kv[1]["exact_match"])[:3]
+    console.print("lowest families: " + ", ".join(f"{k} {v['exact_match']:.3f} ({v['count']})" for k, v in worst),
+                  highlight=False)
+    if json_out is not None:
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        json_out.write_text(json.dumps(report, indent=2) + "\n")
+
+
+def _dataset_manifest(data: Path) -> dict:
+    try:
+        return json.loads((Path(data) / "manifest.json").read_text())
+    except (OSError, json.JSONDecodeError):
+        return {}
+
+
+def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:
+    app.command("parse")(parse)
+    train_app.command("parser")(train_parser_command)
+    eval_app.command("parser")(eval_parser_command)

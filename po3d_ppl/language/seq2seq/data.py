@@ -1,0 +1,60 @@
+"""(question, program) examples for training and evaluating the question parser.
+
+Examples come from question records in the public format (``question``, ``program``, and for grouping
+``question_family_index`` / ``template_filename``), whether produced by our dataset builder or by the released
+Super-CLEVR-3D question files.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+from po3d_ppl.errors import InputError
+from po3d_ppl.language.ast import Program
+from po3d_ppl.language.json_io import program_from_json
+
+
+@dataclass(frozen=True)
+class Example:
+    question: str
+    program: Program
+    #: The question file the example came from (parts, pose, occlusion ...).
+    source: str
+    #: Template family, ``<template file>:<index>`` when the record says so.
+    family: str
+
+
+def examples_from_records(records: Iterable[Mapping], source: str) -> list[Example]:
+    """Examples from public question records (``source`` names the question file in errors and reports)."""
+    out = []
+    for i, record in enumerate(records):
+        where = f"{source}[{i}]"
+        question = record.get("question") if isinstance(record, Mapping) else None
+        if not isinstance(question, str) or not question.strip():
+            raise InputError(f"{where}.question", "every record needs a non-empty 'question' string")
+        program = program_from_json(record.get("program"), where=f"{where}.program")
+        template = str(record.get("template_filename", source))
+        family = f"{Path(template).stem}:{record.get('question_family_index', '?')}"
+        out.append(Example(question, program, source, family))
+    return out
+
+
+def load_examples(data_dir: Path, split: str) -> list[Example]:
+    """Every question of ``split`` in a dataset built by ``po3d dataset build``, grouped by question file."""
+    from po3d_ppl.questions.dataset import load_dataset
+
+    data_dir = Path(data_dir)
+    if not data_dir.is_dir():
+        raise InputError("--data", f"{data_dir} is not a directory; build one with `po3d dataset build --out DIR`")
+    dataset = load_dataset(data_dir)
+    if split not in dataset.splits:
+        raise InputError("--split", f"unknown split {split!r} (known: {', '.join(dataset.splits)})")
+    members = set(dataset.splits[split])
+    examples: list[Example] = []
+    for source, records in dataset.questions.items():
+        examples.extend(examples_from_records((r for r in records if r.get("image_index") in members), source))
+    if not examples:
+        raise InputError("--split", f"no questions for split {split!r} in {data_dir}")
+    return examples

@@ -1,0 +1,223 @@
+"""Training and evaluation of the question parser (deterministic from the seed, CPU or any torch device).
+
+Determinism: parameters are initialised from a ``torch.Generator``, batches are shuffled by
+``numpy.random.default_rng(seed)``, word dropout draws from that generator, and dropout layers draw from a
+forked, seeded torch RNG (``torch.random.fork_rng``), so the process-wide RNG state is left untouched.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+from torch import nn
+
+from po3d_ppl.errors import InputError
+from po3d_ppl.language.seq2seq.constraints import TypeAutomaton
+from po3d_ppl.language.seq2seq.data import Example
+from po3d_ppl.language.seq2seq.decode import greedy_batch
+from po3d_ppl.language.seq2seq.model import ParserConfig, Seq2SeqParser
+from po3d_ppl.language.seq2seq.vocab import TargetVocabulary, WordVocabulary
+from po3d_ppl.language.tokens import program_to_tokens
+from po3d_ppl.language.typecheck import check_program
+from po3d_ppl.reasoning.registry import OperationRegistry
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    seed: int = 0
+    epochs: int = 6
+    batch_size: int = 64
+    lr: float = 2e-3
+    embed: int = 64
+    hidden: int = 128
+    dropout: float = 0.1
+    word_dropout: float = 0.02
+    clip: float = 5.0
+    #: Stop after this many optimiser steps (tests use a handful); None trains all epochs.
+    max_steps: int | None = None
+
+
+@dataclass
+class Encoded:
+    """Examples as padded id tensors plus the per-position constraint mask ids."""
+
+    words: torch.Tensor  # [N, T]
+    lengths: torch.Tensor  # [N]
+    targets: torch.Tensor  # [N, L], -100 after the end
+    mask_ids: torch.Tensor  # [N, L]
+
+
+@dataclass
+class Trained:
+    model: Seq2SeqParser
+    words: WordVocabulary
+    targets: TargetVocabulary
+    root_types: tuple[str, ...]
+    max_len: int
+    history: list[dict] = field(default_factory=list)
+
+
+def encode_examples(examples: Sequence[Example], words: WordVocabulary, targets: TargetVocabulary,
+                    automaton: TypeAutomaton) -> Encoded:
+    word_ids = [words.encode(e.question)[0] or [1] for e in examples]
+    target_ids, mask_ids = [], []
+    for e in examples:
+        try:
+            ids = targets.encode(e.program)
+        except KeyError as exc:
+            raise InputError("program", f"{e.source} question {e.question!r}: token {exc} is not in the parser's "
+                                        "target vocabulary") from None
+        state, keys = automaton.initial(), []
+        for token in ids:
+            keys.append(automaton.mask_key_id(state))
+            state = automaton.advance(state, token)
+        target_ids.append(ids)
+        mask_ids.append(keys)
+    n, t, length = len(examples), max(map(len, word_ids)), max(map(len, target_ids))
+    out = Encoded(torch.zeros(n, t, dtype=torch.long), torch.tensor([len(w) for w in word_ids]),
+                  torch.full((n, length), -100, dtype=torch.long), torch.zeros(n, length, dtype=torch.long))
+    for i, (w, ids, keys) in enumerate(zip(word_ids, target_ids, mask_ids)):
+        out.words[i, :len(w)] = torch.tensor(w)
+        out.targets[i, :len(ids)] = torch.tensor(ids)
+        out.mask_ids[i, :len(keys)] = torch.tensor(keys)
+    return out
+
+
+def _decoder_inputs(targets: torch.Tensor) -> torch.Tensor:
+    """Shift right: start token 0, then the target ids (padding positions become 0 too)."""
+    shifted = torch.zeros_like(targets)
+    shifted[:, 1:] = targets[:, :-1].clamp(min=0)
+    return shifted
+
+
+def train_parser(train: Sequence[Example], config: TrainConfig, registry: OperationRegistry,
+                 validation: Sequence[Example] = (), device: str | torch.device = "cpu",
+                 progress: Callable[[int, int, dict], None] | None = None) -> Trained:
+    """Train a parser on ``train``; after each epoch the exact match on ``validation`` is recorded and the
+    best epoch's weights are kept. ``progress(step, total_steps, info)`` is called after every step."""
+    if not train:
+        raise InputError("--data", "no training examples")
+    for e in train:
+        check_program(e.program, registry)
+    words = WordVocabulary.build(e.question for e in train)
+    targets = TargetVocabulary.from_registry(registry)
+    root_types = tuple(sorted({check_program(e.program, registry).type for e in train}))
+    longest = max(len(targets.encode(e.program)) for e in train)
+    automaton = TypeAutomaton(registry, targets, root_types, max_len=2 * longest + 8)
+    data = encode_examples(train, words, targets, automaton)
+    masks = torch.from_numpy(automaton.mask_table()).to(device)
+
+    model_config = ParserConfig(len(words), len(targets), config.embed, config.hidden, config.dropout)
+    model = Seq2SeqParser(model_config).to(device)
+    generator = torch.Generator().manual_seed(config.seed)
+    model.reset_parameters(generator)
+    optimiser = torch.optim.Adam(model.parameters(), lr=config.lr)
+    rng = np.random.default_rng(config.seed)
+    n = len(train)
+    steps_per_epoch = (n + config.batch_size - 1) // config.batch_size
+    total = steps_per_epoch * config.epochs if config.max_steps is None else min(
+        config.max_steps, steps_per_epoch * config.epochs)
+    schedule = torch.optim.lr_scheduler.OneCycleLR(optimiser, max_lr=config.lr, total_steps=max(total, 1),
+                                                   pct_start=0.1)
+    loss_fn = nn.CrossEntropyLoss(ignore_index=-100)
+    trained = Trained(model, words, targets, root_types, automaton.max_len)
+    best_state, best_accuracy, step = None, -1.0, 0
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(config.seed)
+        for epoch in range(config.epochs):
+            model.train()
+            order = rng.permutation(n)
+            running = 0.0
+            for start in range(0, n, config.batch_size):
+                if step >= total:
+                    break
+                index = torch.from_numpy(order[start:start + config.batch_size])
+                length = int(data.lengths[index].max())
+                batch_words = data.words[index, :length]
+                if config.word_dropout > 0:
+                    drop = torch.from_numpy(rng.random(tuple(batch_words.shape)) < config.word_dropout)
+                    batch_words = torch.where(drop & (batch_words > 0), torch.ones_like(batch_words), batch_words)
+                batch_targets = data.targets[index]
+                keep = int((batch_targets >= 0).sum(dim=1).max())
+                batch_targets = batch_targets[:, :keep].to(device)
+                logits = model(batch_words.to(device), data.lengths[index], _decoder_inputs(batch_targets))
+                allowed = masks[data.mask_ids[index, :keep].to(device)]
+                logits = logits.masked_fill(~allowed, -1e9)
+                loss = loss_fn(logits.reshape(-1, logits.shape[-1]), batch_targets.reshape(-1))
+                optimiser.zero_grad()
+                loss.backward()
+                nn.utils.clip_grad_norm_(model.parameters(), config.clip)
+                optimiser.step()
+                schedule.step()
+                step += 1
+                value = loss.item()
+                running += value
+                if progress:
+                    progress(step, total, {"epoch": epoch + 1, "loss": value})
+            record = {"epoch": epoch + 1, "steps": step,
+                      "train_loss": running / max(1, min(steps_per_epoch, step))}
+            if validation:
+                record["val_exact_match"] = evaluate(trained, validation, registry)["exact_match"]
+                if record["val_exact_match"] > best_accuracy:
+                    best_accuracy = record["val_exact_match"]
+                    best_state = {k: v.detach().clone() for k, v in model.state_dict().items()}
+            trained.history.append(record)
+            if step >= total:
+                break
+    if best_state is not None:
+        model.load_state_dict(best_state)
+    model.eval()
+    return trained
+
+
+def _automaton(trained: Trained, registry: OperationRegistry) -> TypeAutomaton:
+    return TypeAutomaton(registry, trained.targets, trained.root_types, trained.max_len)
+
+
+def evaluate(trained: Trained, examples: Sequence[Example], registry: OperationRegistry, batch_size: int = 256,
+             predict: Callable[[Sequence[Example]], list[list[str]]] | None = None) -> dict:
+    """Exact match (predicted prefix tokens == gold prefix tokens), overall, per question file and per family.
+
+    By default predictions are constrained greedy decodes; ``predict`` substitutes another decoder.
+    """
+    if predict is None:
+        automaton = _automaton(trained, registry)
+
+        def predict(batch: Sequence[Example]) -> list[list[str]]:
+            return [trained.targets.decode_tokens(ids) for ids in _greedy(trained, automaton, batch)]
+
+    was_training = trained.model.training
+    trained.model.eval()
+    hits: dict[str, list[int]] = defaultdict(lambda: [0, 0])
+    for start in range(0, len(examples), batch_size):
+        batch = examples[start:start + batch_size]
+        for example, tokens in zip(batch, predict(batch)):
+            ok = int(tokens == program_to_tokens(example.program))
+            for key in ("all", f"file:{example.source}", f"family:{example.source}/{example.family}"):
+                hits[key][0] += ok
+                hits[key][1] += 1
+    trained.model.train(was_training)
+    rate = {k: v[0] / v[1] for k, v in hits.items()}
+    return {
+        "exact_match": rate.get("all", 0.0),
+        "count": hits["all"][1],
+        "per_file": {k[5:]: {"exact_match": rate[k], "count": hits[k][1]} for k in sorted(hits)
+                     if k.startswith("file:")},
+        "per_family": {k[7:]: {"exact_match": rate[k], "count": hits[k][1]} for k in sorted(hits)
+                       if k.startswith("family:")},
+    }
+
+
+def _greedy(trained: Trained, automaton: TypeAutomaton | None, batch: Sequence[Example],
+            arity: dict[int, int] | None = None) -> list[list[int]]:
+    device = next(trained.model.parameters()).device
+    encoded = [trained.words.encode(e.question)[0] or [1] for e in batch]
+    words = torch.zeros(len(batch), max(map(len, encoded)), dtype=torch.long)
+    for i, ids in enumerate(encoded):
+        words[i, :len(ids)] = torch.tensor(ids)
+    lengths = torch.tensor([len(ids) for ids in encoded])
+    return greedy_batch(trained.model, automaton, words.to(device), lengths, arity, trained.max_len)

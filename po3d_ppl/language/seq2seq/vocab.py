@@ -1,0 +1,121 @@
+"""Question words and program target tokens, as id vocabularies for the seq2seq model.
+
+Questions are lower-cased and split into runs of letters and digits, so case and punctuation never matter
+("What's the SUV's colour?" -> what s the suv s colour). Words outside the training vocabulary become ``<unk>``
+and are reported to the caller.
+
+Program targets are the prefix token sequence of :mod:`po3d_ppl.language.tokens` with each value split off
+into a token of its own (``filter_color[red]`` -> ``filter_color``, ``red``): a value is then one embedding
+shared by every operation that takes it, and the decoder's constraint knows which value type may come next.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+from po3d_ppl.language.ast import Program
+from po3d_ppl.language.tokens import format_token, program_from_tokens, program_to_tokens, split_token
+from po3d_ppl.reasoning.registry import OperationRegistry, value_vocabulary
+
+PAD, UNK = "<pad>", "<unk>"
+_WORD = re.compile(r"[a-z0-9]+")
+
+
+def tokenize(question: str) -> list[str]:
+    """Lower-cased words of ``question``; punctuation and spacing are dropped."""
+    return _WORD.findall(question.lower())
+
+
+@dataclass(frozen=True)
+class WordVocabulary:
+    """Question words -> ids; id 0 is padding, id 1 is ``<unk>``."""
+
+    words: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_index", {w: i for i, w in enumerate(self.words)})
+
+    @classmethod
+    def build(cls, questions: Iterable[str], min_count: int = 1) -> WordVocabulary:
+        counts: dict[str, int] = {}
+        for question in questions:
+            for word in tokenize(question):
+                counts[word] = counts.get(word, 0) + 1
+        kept = sorted(w for w, c in counts.items() if c >= min_count)
+        return cls((PAD, UNK, *kept))
+
+    def encode(self, question: str) -> tuple[list[int], list[str]]:
+        """Word ids of ``question`` and the words that were not in the vocabulary (in order of appearance)."""
+        ids, unknown = [], []
+        for word in tokenize(question):
+            index = self._index.get(word)
+            if index is None:
+                unknown.append(word)
+                index = 1
+            ids.append(index)
+        return ids, unknown
+
+    def __len__(self) -> int:
+        return len(self.words)
+
+
+@dataclass(frozen=True)
+class TargetVocabulary:
+    """Operation and value tokens -> ids. Id 0 is padding and doubles as the decoder's start token."""
+
+    operations: tuple[str, ...]
+    values: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        tokens = (PAD, *self.operations, *self.values)
+        object.__setattr__(self, "tokens", tokens)
+        object.__setattr__(self, "_op_index", {op: 1 + i for i, op in enumerate(self.operations)})
+        object.__setattr__(self, "_value_index",
+                           {v: 1 + len(self.operations) + i for i, v in enumerate(self.values)})
+
+    @classmethod
+    def from_registry(cls, registry: OperationRegistry) -> TargetVocabulary:
+        """Every registered operation and every literal of every value type an operation takes."""
+        values: set[str] = set()
+        for op in registry:
+            if op.value is not None:
+                values.update(value_vocabulary(op.value))
+        return cls(tuple(registry.names()), tuple(sorted(values)))
+
+    def __len__(self) -> int:
+        return len(self.tokens)
+
+    def op_id(self, name: str) -> int | None:
+        return self._op_index.get(name)
+
+    def value_id(self, value: str) -> int | None:
+        return self._value_index.get(value)
+
+    def is_value(self, token_id: int) -> bool:
+        return token_id > len(self.operations)
+
+    def encode(self, program: Program) -> list[int]:
+        """Target ids of ``program`` (prefix order, values split off). Raises KeyError for unknown tokens."""
+        ids: list[int] = []
+        for token in program_to_tokens(program):
+            function, value = split_token(token)
+            ids.append(self._op_index[function])
+            if value is not None:
+                ids.append(self._value_index[value])
+        return ids
+
+    def decode_tokens(self, ids: Sequence[int]) -> list[str]:
+        """Public prefix tokens (``filter_color[red]``) from target ids."""
+        out: list[str] = []
+        for token_id in ids:
+            token = self.tokens[token_id]
+            if self.is_value(token_id):
+                out[-1] = format_token(out[-1], token)
+            else:
+                out.append(token)
+        return out
+
+    def decode(self, ids: Sequence[int], registry: OperationRegistry) -> Program:
+        return program_from_tokens(self.decode_tokens(ids), registry)
