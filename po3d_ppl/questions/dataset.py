@@ -8,7 +8,7 @@ Layout of a build directory::
                                         (+ height_depth with --height-depth)
     splits.json                         {"train": [...], "val": [...], "test": [...]} image indices
     manifest.json                       version, seed, config, counts
-    work/scene_%06d.json.gz             per-scene intermediate: public scene + candidate questions
+    work/scene_%06d.json.gz             per-scene intermediate: public scene + candidate questions (JSON lines)
 
 Design:
 - Scene i is generated from ``SeedSequence([seed, i])``, independently of every other scene, by any worker.
@@ -145,7 +145,11 @@ class _JsonListFile:
         self.count = 0
 
     def add(self, item: object) -> None:
-        self.f.write(("\n" if self.count == 0 else ",\n") + _dumps(item))
+        self.add_json(_dumps(item))
+
+    def add_json(self, text: str) -> None:
+        """Append an item already encoded as JSON text."""
+        self.f.write(("\n" if self.count == 0 else ",\n") + text)
         self.count += 1
 
     def commit(self) -> None:
@@ -198,10 +202,11 @@ def build_scene(root: Path, config: BuildConfig, index: int) -> SceneTiming:
     rendered_at = time.perf_counter()
     sets = question_sets(config.height_depth).values()
     found = scene_candidates(scene, question_seed, families_of(sets), redundancy=config.redundancy)
-    record = {"scene": scene_to_public(scene),
-              "candidates": [[f, i, [c.to_record() for c in cands]] for (f, i), cands in found.items()]}
+    # two JSON lines: the public scene (copied verbatim into scenes.json) and the candidates
+    record = _dumps(scene_to_public(scene)) + "\n" + _dumps(
+        [[f, i, [c.to_record() for c in cands]] for (f, i), cands in found.items()]) + "\n"
     done = time.perf_counter()
-    atomic_write_bytes(work_path(root, index), gzip.compress(_dumps(record).encode(), mtime=0))
+    atomic_write_bytes(work_path(root, index), gzip.compress(record.encode(), mtime=0))
     return SceneTiming(rendered_at - start, done - rendered_at, sum(len(c) for c in found.values()))
 
 
@@ -209,8 +214,10 @@ def _build_scene_task(root: str, config: dict, index: int) -> tuple[int, SceneTi
     return index, build_scene(Path(root), BuildConfig.from_json(config), index)
 
 
-def _read_work(root: Path, index: int) -> dict:
-    return json.loads(gzip.decompress(work_path(root, index).read_bytes()))
+def _read_work(root: Path, index: int) -> tuple[str, list]:
+    """(public scene as JSON text, candidate records) of a finished scene."""
+    scene_text, candidates = gzip.decompress(work_path(root, index).read_bytes()).decode().split("\n", 2)[:2]
+    return scene_text, json.loads(candidates)
 
 
 # ---- assembly -----------------------------------------------------------------------------------------------------
@@ -229,15 +236,14 @@ def _assemble(root: Path, config: BuildConfig) -> dict:
     outputs = (scenes_file, *question_files.values())
     try:
         for index in range(config.scenes):
-            work = _read_work(root, index)
-            scene = work["scene"]
-            scenes_file.add(scene)
-            candidates = {(f, i): [Candidate.from_record(r) for r in recs] for f, i, recs in work["candidates"]}
+            scene_text, records = _read_work(root, index)
+            scenes_file.add_json(scene_text)
+            candidates = {(f, i): [Candidate.from_record(r) for r in recs] for f, i, recs in records}
+            split = split_of(index, config.scenes, config.split_fractions)
             for name, chosen in select_for_scene(candidates, sets.values(), balancer, rng).items():
                 out = question_files[name]
                 for cand in chosen:
-                    out.add(public_question(cand, scene["image_index"], scene["image_filename"], scene["split"],
-                                            out.count))
+                    out.add(public_question(cand, index, IMAGE_PATTERN.format(index), split, out.count))
                     family_counts[name][f"{cand.template_filename}:{cand.question_family_index}"] += 1
         for f in outputs:
             f.commit()
