@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 import po3d_ppl
-from po3d_ppl.errors import InputError
+from po3d_ppl.errors import InputError, Po3dError
 from po3d_ppl.questions.balance import AnswerBalancer
 from po3d_ppl.questions.generator import Candidate
 from po3d_ppl.questions.question_sets import question_sets
@@ -210,8 +210,15 @@ def build_scene(root: Path, config: BuildConfig, index: int) -> SceneTiming:
     return SceneTiming(rendered_at - start, done - rendered_at, sum(len(c) for c in found.values()))
 
 
+class SceneBuildError(Po3dError):
+    """A scene of a build could not be made; the message names the scene (picklable across processes)."""
+
+
 def _build_scene_task(root: str, config: dict, index: int) -> tuple[int, SceneTiming]:
-    return index, build_scene(Path(root), BuildConfig.from_json(config), index)
+    try:
+        return index, build_scene(Path(root), BuildConfig.from_json(config), index)
+    except Po3dError as exc:  # re-raised as a plain message: typed errors with extra fields do not unpickle
+        raise SceneBuildError(f"scene {index}: {exc}") from None
 
 
 def _read_work(root: Path, index: int) -> tuple[str, list]:
@@ -342,8 +349,9 @@ def _run(root: Path, config: BuildConfig, pending: list[int], workers: int,
 
     try:
         if workers == 1 or total <= 1:
+            payload = config.to_json()
             for k, index in enumerate(pending):
-                yield build_scene(root, config, index)
+                yield _build_scene_task(str(root), payload, index)[1]
                 tick(k + 1)
             return
         payload = config.to_json()

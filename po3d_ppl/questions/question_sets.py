@@ -1,5 +1,8 @@
 """Which template families feed which question file, and how many questions each file gets per scene.
 
+The quotas give about 30 questions per rendered scene: occlusion questions need occluded objects, which about half
+of the scenes have, so the occlusion files often fall short of their quota.
+
 The released Super-CLEVR-3D question files map to template directories (spec §3.1): ``parts`` = part.json,
 ``pose`` = pose.json, ``occlusion`` = occlusion.json + occlusion_by.json, ``obj_occlusion`` = the object-level
 subset (occlusion 2-5, occlusion_by 1-8). ``core`` (CLEVR-style questions) and ``height_depth`` (elevated
@@ -33,12 +36,12 @@ def _all(filename: str) -> tuple[tuple[str, int], ...]:
 def question_sets(height_depth: bool = False) -> dict[str, QuestionSet]:
     """The question files of a dataset build, in output order."""
     sets = [
-        QuestionSet("parts", _all("parts.json"), 6),
-        QuestionSet("pose", _all("pose.json"), 6),
+        QuestionSet("parts", _all("parts.json"), 7),
+        QuestionSet("pose", _all("pose.json"), 7),
         QuestionSet("occlusion", _all("occlusion.json") + _all("occlusion_by.json"), 8),
         QuestionSet("obj_occlusion", tuple(("occlusion.json", i) for i in range(2, 6))
                     + tuple(("occlusion_by.json", i) for i in range(1, 9)), 4),
-        QuestionSet("core", _all("core.json"), 6),
+        QuestionSet("core", _all("core.json"), 8),
     ]
     if height_depth:
         sets.append(QuestionSet("height_depth", _all("height_depth.json"), 4))
