@@ -69,7 +69,8 @@ def main() -> None:
     parser.add_argument("--height", type=int, default=480)
     parser.add_argument("--toy-scenes", type=int, default=100)
     args = parser.parse_args()
-    bench_questions(args.toy_scenes)
+    if args.toy_scenes > 0:
+        bench_questions(args.toy_scenes)
     if args.scenes > 0:
         bench_build(args.scenes, args.width, args.height)
 
