@@ -223,7 +223,10 @@ def _build_scene_task(root: str, config: dict, index: int) -> tuple[int, SceneTi
 
 def _read_work(root: Path, index: int) -> tuple[str, list]:
     """(public scene as JSON text, candidate records) of a finished scene."""
-    scene_text, candidates = gzip.decompress(work_path(root, index).read_bytes()).decode().split("\n", 2)[:2]
+    scene_text, _, candidates = gzip.decompress(work_path(root, index).read_bytes()).decode().partition("\n")
+    if not candidates.strip():  # the first work format, one object: {"scene", "candidates"} (builds in progress)
+        record = json.loads(scene_text)
+        return _dumps(record["scene"]), record["candidates"]
     return scene_text, json.loads(candidates)
 
 
