@@ -313,6 +313,7 @@ def build_dataset(out: str | os.PathLike, config: BuildConfig, *, workers: int =
     ``(done, total)``."""
     if not isinstance(workers, int) or workers < 1:
         raise InputError("workers", f"must be a positive integer, got {workers!r}")
+    config.scene_config()  # invalid scene settings fail here, before any directory is made
     root = Path(out)
     if root.exists() and not root.is_dir():
         raise InputError("out", f"{root} exists and is not a directory")
