@@ -56,18 +56,20 @@ def sparse_random_evidence(scene: Scene, rng: np.random.Generator, num_uncertain
     def flip(tensor: torch.Tensor, index: tuple) -> None:
         tensor[index] = rng.normal(0.0, 2.0)
 
-    choices = []
+    objects, others = [], []  # half of the uncertainty goes to object latents, half to pairs and parts
     for i in range(n):
-        choices += [("exist_logodds", (i,)), ("subtype_loglik", (i,)), ("color_loglik", (i,)),
+        objects += [("exist_logodds", (i,)), ("subtype_loglik", (i,)), ("color_loglik", (i,)),
                     ("material_loglik", (i,)), ("size_loglik", (i,)), ("pose_loglik", (i,)),
                     ("occluded_logodds", (i,))]
-        choices += [("occludes_logodds", (i, j)) for j in range(n) if j != i]
+        others += [("occludes_logodds", (i, j)) for j in range(n) if j != i]
         s = true_sub[i]
         for p in range(len(ontology.PARTS[ontology.SUBTYPES[s]])):
-            choices += [("part_style_loglik", (i, s, p)), ("part_occluded_logodds", (i, s, p))]
-            choices += [("part_occludes_logodds", (i, s, p, j)) for j in range(n) if j != i]
-    for k in rng.choice(len(choices), size=min(num_uncertain, len(choices)), replace=False):
-        name, index = choices[k]
+            others += [("part_style_loglik", (i, s, p)), ("part_occluded_logodds", (i, s, p))]
+            others += [("part_occludes_logodds", (i, s, p, j)) for j in range(n) if j != i]
+    half = num_uncertain // 2
+    picked = [objects[k] for k in rng.choice(len(objects), size=min(num_uncertain - half, len(objects)), replace=False)]
+    picked += [others[k] for k in rng.choice(len(others), size=min(half, len(others)), replace=False)]
+    for name, index in picked:
         (two_way if name.endswith("loglik") else flip)(fields[name], index)
     return SceneEvidence(**fields, pose_support=ev.pose_support, positions=ev.positions, depths=ev.depths,
                          directions=ev.directions)

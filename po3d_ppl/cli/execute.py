@@ -7,24 +7,6 @@ from pathlib import Path
 import typer
 
 
-def _read_program(text: str):
-    import json
-
-    from po3d_ppl.errors import InputError
-
-    source = "--program"
-    stripped = text.lstrip()
-    if not stripped.startswith(("[", "{")):
-        path = Path(text)
-        if not path.is_file():
-            raise InputError("--program", f"{text!r} is neither a JSON program list nor an existing file")
-        source, stripped = str(path), path.read_text(encoding="utf-8")
-    try:
-        return json.loads(stripped)
-    except json.JSONDecodeError as exc:
-        raise InputError(source, f"not valid JSON ({exc.msg} at line {exc.lineno} column {exc.colno})") from None
-
-
 def execute(
     scene: Path = typer.Option(..., "--scene", help="A scene file, or a scenes file ({info, scenes})."),
     program: str = typer.Option(..., "--program",
@@ -35,19 +17,11 @@ def execute(
     """Print the reference answer of PROGRAM on the scene (raw value and the public verbalised answer)."""
     from rich.console import Console
 
-    from po3d_ppl.errors import InputError
+    from po3d_ppl.cli._common import load_scene_arg, read_program_arg
     from po3d_ppl.questions.executor import execute as run
     from po3d_ppl.questions.verbalise import verbalise_answer
-    from po3d_ppl.world.scene_io import load_scenes
 
-    scenes = load_scenes(scene)
-    if index is None:
-        if len(scenes) != 1:
-            raise InputError("--index", f"{scene} holds {len(scenes)} scenes; pick one with --index 0..{len(scenes)-1}")
-        index = 0
-    if not 0 <= index < len(scenes):
-        raise InputError("--index", f"must be in 0..{len(scenes) - 1}, got {index}")
-    result = run(scenes[index], _read_program(program))
+    result = run(load_scene_arg(scene, index), read_program_arg(program))
     console = Console()
     if not result.valid:
         console.print(f"invalid: {result.reason}", highlight=False)

@@ -56,6 +56,26 @@ class AnswerDistribution:
             return ontology.readable_name(answer)
         return str(answer).lower() if isinstance(answer, bool) else str(answer)
 
+    @staticmethod
+    def mixture(weighted: list[tuple[float, AnswerDistribution]], method: str | None = None) -> AnswerDistribution:
+        """Marginalise over alternatives (e.g. the n-best parses of a question): weights are renormalised."""
+        total = sum(w for w, _ in weighted)
+        if not weighted or total <= 0:
+            raise ValueError("a mixture needs alternatives with positive weight")
+        probs: dict = {}
+        for w, d in weighted:
+            for answer, p in d.probs.items():
+                probs[answer] = probs.get(answer, 0.0) + w / total * p
+        types = {d.answer_type for _, d in weighted}
+        return AnswerDistribution(
+            probs=dict(sorted(probs.items(), key=lambda kv: -kv[1])),
+            invalid=sum(w / total * d.invalid for w, d in weighted),
+            method=method or weighted[0][1].method,
+            answer_type=types.pop() if len(types) == 1 else "mixed",
+            error=sum(w / total * d.error for w, d in weighted),
+            info={"alternatives": [{"weight": w / total, **d.info} for w, d in weighted]},
+        )
+
     def to_dict(self) -> dict:
         return {
             "method": self.method,

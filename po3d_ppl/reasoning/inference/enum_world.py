@@ -87,6 +87,14 @@ class Factor:
 
 
 @dataclass(frozen=True, eq=False)
+class PartAggregate:
+    """A per-object flag ``dim`` that is 1 exactly when some part slot of the object is in ``members``."""
+
+    dim: Dim
+    members: Sop
+
+
+@dataclass(frozen=True, eq=False)
 class Aggregate:
     dim: Dim
     members: Sop
@@ -120,6 +128,7 @@ class EnumWorld(LatentWorld):
         self._pair_reads: dict[tuple, torch.Tensor] = {}
         self.factors: list[Factor] = []
         self.aggregates: list[Aggregate] = []
+        self.part_aggregates: list[PartAggregate] = []
         self.pivot_dims: list[Dim] = []
         self._ar_n = torch.arange(n).view(n, 1)
         self._ar_p = torch.arange(self.num_parts).view(1, self.num_parts)
@@ -359,15 +368,12 @@ class EnumWorld(LatentWorld):
         return PartPivot(owner, slot)
 
     def any_part(self, parts):
+        """Objects owning a member part: a per-object latent R = "some part is a member", constrained through
+        inclusion-exclusion over part products (see ``exact._Contractor.masses``)."""
         members = Sop.lift(parts)
-        witness = self.alloc(f"W{len(self.dims)}", self.num_parts + 1, "local")
-        w, p = self.ar(witness), self.slot
-        before, at, after = p < w, p == w, p > w
-        terms = [(1.0, (after,)), (1.0, (before,))]
-        for coef, fs in members.terms:
-            terms += [(-coef, (before, *fs)), (coef, (at, *fs))]
-        self.factors.append(Factor.everywhere(Sop(terms)))
-        return Sop.lift(w != self.num_parts)
+        flag = self.alloc(f"R{len(self.part_aggregates)}", 2, "local")
+        self.part_aggregates.append(PartAggregate(flag, members))
+        return Sop.lift(self.ar(flag) == 1)
 
     def _aggregate(self, members, cap: int, name: str) -> torch.Tensor:
         members = Sop.lift(members)

@@ -53,6 +53,7 @@ class _Contractor:
         self.kind[-1] = "plate"
         self.kind[-2] = "plate"
         self.peak = 0
+        self._floats: dict[int, tuple[torch.Tensor, torch.Tensor]] = {}
 
     def _size(self, pos: int) -> int:
         if pos == -1:
@@ -61,14 +62,32 @@ class _Contractor:
             return self.world.num_objects
         return self.world.dims[-3 - pos].size
 
+    def _float(self, t: torch.Tensor) -> torch.Tensor:
+        """``t`` as float64, converted once per contraction (factor tensors recur in many terms)."""
+        if t.dtype == DTYPE:
+            return t
+        key = id(t)
+        if key not in self._floats:
+            self._floats[key] = (t, t.to(DTYPE))
+        return self._floats[key][1]
+
     def einsum(self, tensors: list[torch.Tensor], keep) -> torch.Tensor:
         """Sum every dimension not kept (``keep(pos)``) of the product of ``tensors``; result in the layout."""
+        # tensors over the same dimensions are multiplied first: fewer operands, cheaper contraction paths
+        grouped: dict[tuple[int, ...], torch.Tensor] = {}
+        seen: set[int] = set()
+        for t in tensors:
+            if id(t) in seen:  # a {0,1} factor repeated in a product is the factor itself
+                continue
+            seen.add(id(t))
+            pos = tuple(_present(t))
+            squeezed = self._float(t).reshape([t.shape[p] for p in pos])
+            grouped[pos] = grouped[pos] * squeezed if pos in grouped else squeezed
         operands: list = []
         present: set[int] = set()
-        for t in tensors:
-            pos = _present(t)
+        for pos, t in grouped.items():
             present.update(pos)
-            operands += [t.to(DTYPE).reshape([t.shape[p] for p in pos]), [-p for p in pos]]
+            operands += [t, [-p for p in pos]]
         out = sorted(p for p in present if keep(p))
         size = math.prod(self._size(p) for p in out)
         self.peak = max(self.peak, size)
@@ -114,27 +133,48 @@ class _Contractor:
         return _rank(self.sum_of_products(factors, q, ("part",), lambda p: self.kind.get(p) != "part"), 2)
 
     def masses(self, factors: list[Sop], q: dict[int, torch.Tensor],
-               slotted: list[tuple[Dim, Sop | None, Sop | None]] = ()) -> torch.Tensor:
+               slotted: list[tuple[Dim, Sop | None, Sop | None]] = (),
+               part_aggregates: list[tuple[Dim, Sop]] = ()) -> torch.Tensor:
         """Per-object mass of the factors (local latents summed, part slots inside a product): ``[.., N, 1]``.
 
         ``slotted`` holds part-pivot factors ``(slot dim, at the slot, at the other slots)`` of the one object being
         evaluated; part pivots are handled like object pivots one level down (see :func:`_pivoted_product`).
+        ``part_aggregates`` are flags R = "some slot is in T": by inclusion-exclusion,
+        ``[R=0] prod_p(1-T_p) + [R=1] (prod_p 1 - prod_p(1-T_p))``, each product taken together with the other
+        part-level factors.
         """
         part_level = [f for f in factors if self.is_part_level(f)]
         object_level = [f for f in factors if not self.is_part_level(f)]
-        if slotted:
-            slots = list(dict.fromkeys(d for d, _, _ in slotted))
-            off = self.inner(part_level + [other for _, _, other in slotted if other is not None], q)
 
-            def at_block(block: tuple[Dim, ...]) -> torch.Tensor:
-                chosen = [at if d in block else other for d, at, other in slotted]
-                values = self.inner(part_level + [f for f in chosen if f is not None], q)
-                return _substitute(values, self.world, block[0], block[1:], axis=-1)
+        def part_product(extra: list[Sop]) -> torch.Tensor | None:
+            if slotted:
+                slots = list(dict.fromkeys(d for d, _, _ in slotted))
+                off = self.inner(part_level + extra + [other for _, _, other in slotted if other is not None], q)
 
-            object_level.append(Sop.lift(_pivoted_product(self.world, off, slots, at_block, axis=-1)))
-        elif part_level:
-            inner = self.inner(part_level, q)
-            object_level.append(Sop.lift(_product_along(inner, -1, self.world.num_parts)))
+                def at_block(block: tuple[Dim, ...]) -> torch.Tensor:
+                    chosen = [at if d in block else other for d, at, other in slotted]
+                    values = self.inner(part_level + extra + [f for f in chosen if f is not None], q)
+                    return _substitute(values, self.world, block[0], block[1:], axis=-1)
+
+                return _pivoted_product(self.world, off, slots, at_block, axis=-1)
+            if part_level or extra:
+                return _product_along(self.inner(part_level + extra, q), -1, self.world.num_parts)
+            return None
+
+        if part_aggregates:
+            flags = torch.zeros((), dtype=DTYPE)
+            for subset in itertools.product((False, True), repeat=len(part_aggregates)):
+                product = part_product([~members for (_, members), used in zip(part_aggregates, subset) if used])
+                weight = torch.ones((), dtype=DTYPE)
+                for (flag, _), used in zip(part_aggregates, subset):
+                    r = self.world.ar(flag)
+                    weight = weight * (((r == 0).to(DTYPE) - (r == 1).to(DTYPE)) if used else (r == 1).to(DTYPE))
+                flags = flags + weight * (product if product is not None else 1.0)
+            object_level.append(Sop.lift(flags))
+        else:
+            product = part_product([])
+            if product is not None:
+                object_level.append(Sop.lift(product))
         mass = self.sum_of_products(object_level, q, ("local",),
                                     lambda p: p == -2 or self.kind.get(p) in ("global", "aggregate"))
         return _rank(mass, 2)
@@ -201,7 +241,8 @@ class _Masses:
         world = contractor.world
         self.world, self.contractor = world, contractor
         q = {d.pos: t for d, t in world.q.items()}
-        self.off = contractor.masses([f.off for f in world.factors if f.off is not None] + extra, q)
+        self.off = contractor.masses([f.off for f in world.factors if f.off is not None] + extra, q,
+                                     part_aggregates=[(a.dim, a.members) for a in world.part_aggregates])
         self.on: dict[tuple[Dim, ...], torch.Tensor] = {}
         for size in range(1, len(world.pivot_dims) + 1):
             for block in itertools.combinations(world.pivot_dims, size):
@@ -222,7 +263,8 @@ class _Masses:
         plain = [sub(f) for f in plain if f is not None]
         slotted = [(d, sub(at), sub(other)) for d, at, other in slotted]
         q_at = {p: _substitute(t, world, rep, merged) for p, t in q.items()}
-        return self.contractor.masses(plain, q_at, slotted)
+        aggregates = [(a.dim, sub(a.members)) for a in world.part_aggregates]
+        return self.contractor.masses(plain, q_at, slotted, aggregates)
 
 def _indicator(world: EnumWorld, partition: list[list[Dim]]) -> torch.Tensor:
     """1 where the pivots' values coincide exactly as the partition says."""

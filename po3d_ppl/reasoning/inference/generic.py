@@ -74,7 +74,8 @@ def generic_distribution(typed, posteriors: SitePosteriors, evidence: SceneEvide
     answer = run_program(typed, world)
     n, p = world.num_objects, world.num_parts
     globals_ = [d for d in world.dims if d.kind == "global"]
-    locals_ = [d for d in world.dims if d.kind == "local"]
+    flags = {a.dim: a.members for a in world.part_aggregates}
+    locals_ = [d for d in world.dims if d.kind == "local" and d not in flags]
     part_dims = [d for d in world.dims if d.kind == "part"]
     parts = torch.arange(p)
     uniform = lambda size: dist.Categorical(logits=torch.zeros(size, dtype=DTYPE))  # noqa: E731
@@ -100,6 +101,11 @@ def generic_distribution(typed, posteriors: SitePosteriors, evidence: SceneEvide
                 else:  # a witness: no prior, its constraint factor selects its value
                     env[d.pos] = pyro.sample(f"{d.name}_{k}", uniform(d.size))
                     pyro.factor(f"{d.name}_{k}_scale", torch.tensor(math.log(d.size), dtype=DTYPE))
+            witnesses = {}
+            for a, flag in enumerate(flags):  # "some part is a member": its first member part, or none (= p)
+                witnesses[flag] = pyro.sample(f"witness{a}_{k}", uniform(p + 1))
+                pyro.factor(f"witness{a}_{k}_scale", torch.tensor(math.log(p + 1), dtype=DTYPE))
+                env[flag.pos] = (witnesses[flag] != p).long()
             at = {d.pos: (env[d.pos] == k) for d in world.pivot_dims}
             with pyro.plate(f"parts_{k}", p, dim=-1):
                 for d in part_dims:
@@ -109,6 +115,10 @@ def generic_distribution(typed, posteriors: SitePosteriors, evidence: SceneEvide
                         continue
                     env[d.pos] = pyro.sample(f"{d.name}_{k}", dist.Categorical(
                         probs=_evaluate(world.q[d], env, k, parts, keep=d.pos)))
+                for a, (flag, members) in enumerate(flags.items()):
+                    w, member = witnesses[flag], _sop_value(members, env, k, parts)
+                    first = torch.where(parts < w, 1 - member, torch.where(parts == w, member, 1.0))
+                    pyro.factor(f"witness{a}_{k}_parts", _log(first))
                 for i, f in enumerate(world.factors):
                     if f.slot is None and not _part_level(f):
                         continue

@@ -1,0 +1,69 @@
+"""``po3d answer``: the answer distribution of a question or program about a scene."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+
+def answer(
+    question: str = typer.Argument(None, help="A question in English (parsed by the shipped question parser)."),
+    scene: Path = typer.Option(..., "--scene", help="A scene file, or a scenes file ({info, scenes})."),
+    program: str = typer.Option(None, "--program", help="A program instead of a question: po3d text syntax, a JSON "
+                                                        "node list, or a file holding either."),
+    index: int = typer.Option(None, "--index", help="Which scene of a scenes file."),
+    noise: float = typer.Option(0.0, "--noise", help="Sensor noise of the evidence made from the scene (0 = certain)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the evidence noise and of sampling."),
+    method: str = typer.Option("auto", "--method", help="auto, exact, sampling, dense, generic, thresholded, soft."),
+    samples: int = typer.Option(4096, "--samples", help="Posterior samples for method=sampling."),
+    n_best: int = typer.Option(3, "--parses", help="Parses of the question to marginalise over."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON instead of a table."),
+) -> None:
+    """Print the answer distribution for QUESTION (or --program) about the scene.
+
+    Until perception lands, evidence comes from the scene's ground truth (``--noise`` makes it uncertain).
+    """
+    import json
+
+    from rich.console import Console
+
+    from po3d_ppl.cli._common import load_scene_arg, read_program_arg
+    from po3d_ppl.errors import InputError
+    from po3d_ppl.reasoning import SceneEvidence, SceneReasoner
+
+    if (question is None) == (program is None):
+        raise InputError("QUESTION/--program", "give exactly one of a question or --program")
+    if samples < 1:
+        raise InputError("--samples", f"must be >= 1, got {samples}")
+    if n_best < 1:
+        raise InputError("--parses", f"must be >= 1, got {n_best}")
+    reasoner = SceneReasoner(SceneEvidence.from_scene(load_scene_arg(scene, index), noise=noise, seed=seed))
+    parse = None
+    if program is not None:
+        dist = reasoner.infer(read_program_arg(program, allow_text=True), method, num_samples=samples, seed=seed)
+    else:
+        dist, parse = reasoner.answer_question(question, n_best=n_best, method=method, num_samples=samples, seed=seed)
+    console = Console()
+    if as_json:
+        out = dist.to_dict()
+        if parse is not None:
+            from po3d_ppl.language import program_to_text
+
+            out["parses"] = [{"program": program_to_text(c.program), "probability": c.probability}
+                             for c in parse.candidates]
+            out["unknown_words"] = list(parse.unknown_words)
+        console.print_json(json.dumps(out))
+        return
+    if parse is not None:
+        from po3d_ppl.language import program_to_text
+
+        for c in parse.candidates:
+            console.print(f"[dim]{c.probability:.3f}[/]  {program_to_text(c.program)}", highlight=False)
+        if parse.unknown_words:
+            console.print(f"[yellow]unknown words:[/] {', '.join(parse.unknown_words)}")
+    console.print(str(dist), highlight=False)
+
+
+def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:
+    app.command("answer")(answer)
