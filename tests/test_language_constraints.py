@@ -35,7 +35,9 @@ def test_random_constrained_walks_are_well_typed_and_fit_the_budget(seed, max_le
         assert allowed.size > 0, "dead end"
         token = int(rng.choice(allowed))
         ids.append(token)
+        finishes = automaton.completes(state, token)
         state = automaton.advance(state, token)
+        assert finishes == state.complete
     assert len(ids) <= max_len
     typed = check_program(targets.decode(ids, default_registry()))
     assert typed.type in ROOTS
@@ -49,7 +51,9 @@ def test_every_well_typed_program_is_accepted_token_by_token(program):
     ids = targets.encode(program)
     for token in ids:
         assert automaton.allowed(state)[token], targets.tokens[token]
+        finishes = automaton.completes(state, token)
         state = automaton.advance(state, token)
+        assert finishes == state.complete
     assert state.complete
     assert targets.decode_tokens(ids) == program_to_tokens(program)
 

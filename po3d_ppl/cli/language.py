@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import shlex
-import sys
 from pathlib import Path
 
 import typer
@@ -43,7 +42,8 @@ def parse(
 
 
 def train_parser_command(
-    data: Path = typer.Option(..., "--data", help="Dataset directory from `po3d dataset build`."),
+    data: list[Path] = typer.Option(..., "--data", help="Dataset directory from `po3d dataset build` "
+                                                         "(repeat to train on several)."),
     seed: int = typer.Option(0, "--seed", help="Seed for initialisation, shuffling and dropout."),
     epochs: int = typer.Option(6, "--epochs", min=1, help="Passes over the training split."),
     batch_size: int = typer.Option(64, "--batch-size", min=1),
@@ -76,11 +76,13 @@ def train_parser_command(
     torch.set_num_threads(threads)
     console = Console()
     registry = default_registry()
-    train = load_examples(data, "train")
-    try:
-        validation = load_examples(data, "val")
-    except InputError:  # a dataset without val questions: keep the last epoch
-        validation = []
+    train, validation = [], []
+    for directory in data:
+        train += load_examples(directory, "train")
+        try:
+            validation += load_examples(directory, "val")
+        except InputError:  # a dataset without val questions
+            pass
     config = TrainConfig(seed=seed, epochs=epochs, batch_size=batch_size, lr=lr, hidden=hidden, embed=embed,
                          max_steps=max_steps)
     console.print(f"training on {len(train)} questions, validating on {len(validation)}", highlight=False)
@@ -97,15 +99,16 @@ def train_parser_command(
     seconds = time.perf_counter() - start
     directory = Path(out) if out is not None else models_dir()
     files = save_parser(trained, directory)
-    data_manifest = _dataset_manifest(data)
+    data_manifests = [_dataset_manifest(d) for d in data]
     history = trained.history
     metrics = {"train_questions": len(train), "val_questions": len(validation), "train_seconds": round(seconds, 1),
                "history": history}
     if history and "val_exact_match" in history[-1]:
         metrics["val_exact_match"] = max(h["val_exact_match"] for h in history)
     entry = write_entry(MODEL_NAME, files, directory,
-                        command="po3d " + shlex.join(sys.argv[1:]),
-                        data_seed=data_manifest.get("seed"), data_config=data_manifest.get("config"),
+                        command=_train_command(data, config, out),
+                        data_seed=[m.get("seed") for m in data_manifests],
+                        data_config=[m.get("config") for m in data_manifests],
                         train_config=dataclasses.asdict(config), metrics=metrics)
     size = sum(f["bytes"] for f in entry["files"].values())
     console.print(f"wrote {', '.join(str(f) for f in files)} ({size / 1e6:.2f} MB) in {seconds:.0f} s; "
@@ -116,7 +119,8 @@ def eval_parser_command(
     data: Path = typer.Option(..., "--data", help="Dataset directory from `po3d dataset build`."),
     split: str = typer.Option("test", "--split", help="train, val or test."),
     json_out: Path = typer.Option(None, "--json", help="Write the full report (per file and family) here."),
-    beam: int = typer.Option(5, "--beam", min=1, help="Beam width of the decoder (top-1 is scored)."),
+    beam: int = typer.Option(5, "--beam", min=1, help="Beam width of the decoder (the best program is scored)."),
+    n: int = typer.Option(3, "--n", min=1, help="Also report how often the gold program is among the n best."),
     model_dir: Path = typer.Option(None, "--model-dir", help="Directory with the parser files (default: models/)."),
     threads: int = typer.Option(1, "--threads", min=1, help="torch CPU threads."),
 ) -> None:
@@ -134,17 +138,17 @@ def eval_parser_command(
     examples = load_examples(data, split)
 
     def predict(batch):
-        return [parser.parse(e.question, n=1, beam=beam).best.tokens for e in batch]
+        return [[c.tokens for c in parser.parse(e.question, n=n, beam=beam).candidates] for e in batch]
 
     report = evaluate(parser.trained, examples, parser.registry, predict=predict)
-    report.update({"data": str(data), "split": split, "beam": beam,
+    report.update({"data": str(data), "split": split, "beam": beam, "n": n,
                    "data_seed": _dataset_manifest(data).get("seed")})
-    table = Table(title=f"exact match on {data} [{split}]")
-    for col in ("question file", "questions", "exact match"):
+    table = Table(title=f"question parser on {data} [{split}]")
+    for col in ("question file", "questions", "exact match", "up to part-name spelling", f"gold in {n}-best"):
         table.add_column(col, justify="left" if col == "question file" else "right")
-    for name, row in report["per_file"].items():
-        table.add_row(name, str(row["count"]), f"{row['exact_match']:.4f}")
-    table.add_row("[bold]all", str(report["count"]), f"[bold]{report['exact_match']:.4f}")
+    for name, row in [*report["per_file"].items(), ("all", report)]:
+        table.add_row(name, str(row["count"]), f"{row['exact_match']:.4f}", f"{row['readable_match']:.4f}",
+                      f"{row['in_n_best']:.4f}")
     console = Console()
     console.print(table)
     worst = sorted(report["per_family"].items(), key=lambda kv: kv[1]["exact_match"])[:3]
@@ -153,6 +157,20 @@ def eval_parser_command(
     if json_out is not None:
         json_out.parent.mkdir(parents=True, exist_ok=True)
         json_out.write_text(json.dumps(report, indent=2) + "\n")
+
+
+def _train_command(data: list[Path], config, out: Path | None) -> str:
+    """The training command with every setting spelled out (defaults included), to reproduce the weights."""
+    words = ["po3d", "train", "parser"]
+    for directory in data:
+        words += ["--data", str(directory)]
+    words += ["--seed", str(config.seed), "--epochs", str(config.epochs), "--batch-size", str(config.batch_size),
+              "--lr", str(config.lr), "--hidden", str(config.hidden), "--embed", str(config.embed)]
+    if config.max_steps is not None:
+        words += ["--max-steps", str(config.max_steps)]
+    if out is not None:
+        words += ["--out", str(out)]
+    return shlex.join(words)
 
 
 def _dataset_manifest(data: Path) -> dict:

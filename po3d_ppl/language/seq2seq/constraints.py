@@ -50,6 +50,8 @@ class Frame:
     value_due: bool
     slot: frozenset[str]
     finish: tuple[tuple[str, float], ...]
+    #: The slot being filled is the operation's last input.
+    closing: bool = False
 
 
 @dataclass(frozen=True)
@@ -62,6 +64,11 @@ class DecodeState:
     @property
     def complete(self) -> bool:
         return not self.stack
+
+    @property
+    def closing(self) -> bool:
+        """Whether every pending operation is at its last input (so a leaf token would finish the program)."""
+        return all(len(f.slot) and f.closing for f in self.stack)
 
 
 class TypeAutomaton:
@@ -87,6 +94,11 @@ class TypeAutomaton:
             self.root_ids.append(len(self.overloads))
             self.overloads.append(_Overload("<root>", (t,), None, None))
         self.cost = self._type_costs()
+        #: Operation tokens that finish their own node at once (no inputs, no value).
+        self.leaf = np.zeros(len(targets), dtype=bool)
+        for token, indices in self.by_token.items():
+            self.leaf[token] = self.value_type_of[token] is None and all(
+                not self.overloads[i].inputs for i in indices)
         self.vocab_size = len(targets)
         self._slot_cache: dict[frozenset[str], tuple[np.ndarray, dict[str, np.ndarray]]] = {}
         self._value_cache: dict[str, np.ndarray] = {}
@@ -169,8 +181,9 @@ class TypeAutomaton:
             t = ov.inputs[position]
             if c < per_type.get(t, inf):
                 per_type[t] = c
+        closing = all(len(self.overloads[i].inputs) == position + 1 for i in candidates)
         frame = self._frame_cache[key] = Frame(candidates, done, value_due, frozenset(per_type),
-                                               tuple(sorted(per_type.items())))
+                                               tuple(sorted(per_type.items())), closing)
         return frame
 
     def mask_key(self, state: DecodeState) -> tuple:
@@ -212,12 +225,19 @@ class TypeAutomaton:
             mask = self._allowed_cache[cache_key] = base & fits
         return mask
 
+    def completes(self, state: DecodeState, token: int) -> bool:
+        """Whether emitting the allowed ``token`` finishes the program (cheaper than :meth:`advance`)."""
+        top = state.stack[-1]
+        if top.value_due:  # the value finishes the program only if its operation has no inputs
+            return not top.slot and DecodeState(state.stack[:-1], 0).closing
+        return self.leaf[token] and state.closing
+
     def advance(self, state: DecodeState, token: int) -> DecodeState:
         """The state after emitting ``token`` (which must be allowed)."""
         stack = list(state.stack)
         top = stack[-1]
         if top.value_due:
-            stack[-1] = Frame(top.candidates, top.done, False, top.slot, top.finish)
+            stack[-1] = Frame(top.candidates, top.done, False, top.slot, top.finish, top.closing)
         else:
             candidates = frozenset(i for i in self.by_token.get(token, ()) if self.overloads[i].output in top.slot)
             if not candidates:

@@ -14,7 +14,7 @@ import numpy as np
 import torch
 
 from po3d_ppl.language.seq2seq.constraints import DecodeState, TypeAutomaton
-from po3d_ppl.language.seq2seq.model import Seq2SeqParser
+from po3d_ppl.language.seq2seq.model import Seq2SeqParser, StepWeights
 
 
 @dataclass(frozen=True)
@@ -29,43 +29,78 @@ def _masked_log_softmax(logits: torch.Tensor, allowed: np.ndarray) -> torch.Tens
 
 
 @torch.inference_mode()
-def beam_search(model: Seq2SeqParser, automaton: TypeAutomaton, words: torch.Tensor, n: int = 1,
-                beam: int = 5) -> list[Hypothesis]:
-    """The ``n`` most probable complete programs for one question ``words`` ``[T]`` (beam width ``beam``)."""
+def beam_search(model: Seq2SeqParser, automaton: TypeAutomaton, words: torch.Tensor, n: int = 1, beam: int = 5,
+                weights: StepWeights | None = None) -> list[Hypothesis]:
+    """The ``n`` most probable complete programs for one question ``words`` ``[T]`` (beam width ``beam``).
+
+    ``weights`` (from :meth:`Seq2SeqParser.step_weights`) can be computed once and passed in to save time.
+    """
     beam = max(beam, n)
-    device = words.device
-    ctx = model.start(words)
-    h, c = ctx.h, ctx.c
-    active: list[tuple[tuple[int, ...], float, DecodeState]] = [((), 0.0, automaton.initial())]
+    w = weights or model.step_weights()
+    memory, keys, h, c = model.start(words)
+    active: list[tuple[tuple[int, ...], DecodeState]] = [((), automaton.initial())]
+    active_scores = torch.zeros(1)
     finished: list[Hypothesis] = []
-    prev = torch.zeros(1, dtype=torch.long, device=device)
+    prev = torch.zeros(1, dtype=torch.long, device=words.device)
     for _ in range(automaton.max_len):
-        logits, h, c = model.step(prev, h, c, ctx)
-        allowed = np.stack([automaton.allowed(s) for _, _, s in active])
-        log_probs = _masked_log_softmax(logits, allowed)
-        scores = log_probs + torch.tensor([score for _, score, _ in active], device=device).unsqueeze(1)
-        flat = scores.flatten()
-        count = min(2 * beam, int(allowed.sum()))
-        top_scores, top_index = flat.topk(count)
+        logits, h, c = model.step(w, prev, h, c, memory, keys)
+        allowed = np.stack([automaton.allowed(s) for _, s in active])
+        scores = _masked_log_softmax(logits, allowed).cpu() + active_scores[:, None]
         vocab = scores.shape[1]
-        keep_rows, keep = [], []
-        for score, index in zip(top_scores.tolist(), top_index.tolist()):
+        top_scores, top_index = scores.flatten().topk(min(2 * beam, int(allowed.sum())))
+        kept: list[int] = []
+        next_active: list[tuple[tuple[int, ...], DecodeState]] = []
+        score_list = top_scores.tolist()
+        for position, (score, index) in enumerate(zip(score_list, top_index.tolist())):
             row, token = divmod(index, vocab)
-            ids, _, state = active[row]
-            new_state = automaton.advance(state, token)
-            if new_state.complete:
+            ids, state = active[row]
+            if automaton.completes(state, token):
                 finished.append(Hypothesis((*ids, token), score))
-            elif len(keep) < beam:
-                keep.append(((*ids, token), score, new_state))
-                keep_rows.append(row)
+            elif len(kept) < beam:
+                kept.append(position)
+                next_active.append(((*ids, token), automaton.advance(state, token)))
         finished.sort(key=lambda hyp: -hyp.log_prob)
-        if not keep or (len(finished) >= n and keep[0][1] <= finished[n - 1].log_prob):
+        if not kept or (len(finished) >= n and score_list[kept[0]] <= finished[n - 1].log_prob):
             break
-        rows = torch.tensor(keep_rows, device=device)
+        kept_index = torch.tensor(kept)
+        rows = (top_index[kept_index] // vocab).to(h.device)
         h, c = h[rows], c[rows]
-        prev = torch.tensor([ids[-1] for ids, _, _ in keep], device=device)
-        active = keep
+        prev = (top_index[kept_index] % vocab).to(words.device)
+        active_scores = top_scores[kept_index]
+        active = next_active
     return finished[:n]
+
+
+@torch.inference_mode()
+def greedy(model: Seq2SeqParser, words: torch.Tensor, automaton: TypeAutomaton | None = None,
+           arity: dict[int, int] | None = None, max_len: int = 64,
+           weights: StepWeights | None = None) -> list[int]:
+    """Greedy decoding of one question on the same fast step as :func:`beam_search`. With ``automaton`` it is
+    constrained; without (the baseline) it takes the arg-max over the whole vocabulary and stops when
+    ``arity`` says the prefix program is complete (value tokens take no slot), or at ``max_len``."""
+    w = weights or model.step_weights()
+    memory, keys, h, c = model.start(words)
+    state = automaton.initial() if automaton is not None else None
+    open_slots, ids = 1, []
+    prev = torch.zeros(1, dtype=torch.long, device=words.device)
+    for _ in range(automaton.max_len if automaton is not None else max_len):
+        logits, h, c = model.step(w, prev, h, c, memory, keys)
+        if automaton is not None:
+            logits = logits.masked_fill(~torch.from_numpy(automaton.allowed(state)).to(logits.device),
+                                        float("-inf"))
+        token = int(logits.argmax())
+        ids.append(token)
+        if automaton is not None:
+            state = automaton.advance(state, token)
+            if state.complete:
+                break
+        else:
+            if token in arity:
+                open_slots += arity[token] - 1
+            if open_slots <= 0:
+                break
+        prev = torch.tensor([token], device=words.device)
+    return ids
 
 
 @torch.inference_mode()

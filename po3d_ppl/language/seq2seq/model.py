@@ -77,45 +77,54 @@ class Seq2SeqParser(nn.Module):
         return logits
 
     # ----- single-question decoding (the latency path) ----------------------------------------------------------
-    def start(self, words: torch.Tensor) -> StepContext:
-        """Everything the decoder steps reuse for one question ``words`` ``[T]`` (eval mode)."""
+    def step_weights(self) -> StepWeights:
+        """The decoder's weights rearranged for :meth:`step` (compute once after loading, in eval mode)."""
+        lstm = self.decoder
+        return StepWeights(
+            embedding=self.token_embedding.weight.detach(),
+            gate_weight=torch.cat([lstm.weight_ih_l0, lstm.weight_hh_l0], 1).t().contiguous().detach(),
+            gate_bias=(lstm.bias_ih_l0 + lstm.bias_hh_l0).detach(),
+            combine_weight=self.combine.weight.t().contiguous().detach(),
+            combine_bias=self.combine.bias.detach(),
+            output_weight=self.output.weight.t().contiguous().detach(),
+            output_bias=self.output.bias.detach(),
+        )
+
+    def start(self, words: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """For one question ``words`` ``[T]`` (eval mode): encoder states ``[T, H]``, their attention keys (the
+        general-attention projection, applied once instead of at every step) and the initial (h, c) ``[1, H]``."""
         embedded = self.word_embedding(words[None, :])
         memory, (h, _) = self.encoder(embedded)
         h0, c0 = torch.tanh(self.bridge(torch.cat([h[0], h[1]], dim=-1))).chunk(2, dim=-1)
         memory = memory[0]
-        lstm = self.decoder
-        return StepContext(
-            memory=memory,
-            keys=memory @ self.attention.weight,
-            gate_weight=torch.cat([lstm.weight_ih_l0, lstm.weight_hh_l0], 1).t().contiguous(),
-            gate_bias=lstm.bias_ih_l0 + lstm.bias_hh_l0,
-            h=h0, c=c0,
-        )
+        return memory, memory @ self.attention.weight, h0, c0
 
-    def step(self, tokens: torch.Tensor, h: torch.Tensor, c: torch.Tensor,
-             ctx: StepContext) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    @staticmethod
+    def step(w: StepWeights, tokens: torch.Tensor, h: torch.Tensor, c: torch.Tensor, memory: torch.Tensor,
+             keys: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """One decoder step for ``k`` hypotheses of the same question: ``tokens`` ``[k]``, state ``[k, H]``.
 
-        The LSTM cell is written out (one fused matmul) because ``nn.LSTM`` costs far more per call than the
-        arithmetic of a single step at these sizes; it computes exactly what :meth:`decode` computes.
+        Written out on pre-arranged weights (one fused gate matmul, no module calls) because at these sizes
+        ``nn.LSTM`` and module dispatch cost more per step than the arithmetic; it computes exactly what
+        :meth:`decode` computes.
         """
-        gates = torch.addmm(ctx.gate_bias, torch.cat([self.token_embedding(tokens), h], 1), ctx.gate_weight)
+        gates = torch.addmm(w.gate_bias, torch.cat([w.embedding[tokens], h], 1), w.gate_weight)
         i, f, g, o = gates.chunk(4, dim=1)
         c = torch.sigmoid(f) * c + torch.sigmoid(i) * torch.tanh(g)
         h = torch.sigmoid(o) * torch.tanh(c)
-        context = torch.softmax(h @ ctx.keys.t(), dim=-1) @ ctx.memory
-        combined = torch.tanh(self.combine(torch.cat([h, context], dim=-1)))
-        return self.output(combined), h, c
+        context = torch.softmax(h @ keys.t(), dim=-1) @ memory
+        combined = torch.tanh(torch.addmm(w.combine_bias, torch.cat([h, context], 1), w.combine_weight))
+        return torch.addmm(w.output_bias, combined, w.output_weight), h, c
 
 
 @dataclass(frozen=True)
-class StepContext:
-    """Per-question decoding constants: encoder states, their attention keys (the general-attention projection
-    applied once instead of at every step), the fused LSTM gate weights and the initial state ``[1, H]``."""
+class StepWeights:
+    """Decoder weights laid out for single-step decoding (transposed, gates fused)."""
 
-    memory: torch.Tensor
-    keys: torch.Tensor
+    embedding: torch.Tensor
     gate_weight: torch.Tensor
     gate_bias: torch.Tensor
-    h: torch.Tensor
-    c: torch.Tensor
+    combine_weight: torch.Tensor
+    combine_bias: torch.Tensor
+    output_weight: torch.Tensor
+    output_bias: torch.Tensor

@@ -91,6 +91,8 @@ class QuestionParser:
         self.device = torch.device(device)
         self.model = trained.model.to(self.device).eval()
         self.automaton = TypeAutomaton(self.registry, trained.targets, trained.root_types, trained.max_len)
+        with torch.no_grad():
+            self.step_weights = self.model.step_weights()
 
     @classmethod
     def load(cls, directory: Path | str | None = None, registry: OperationRegistry | None = None,
@@ -126,7 +128,7 @@ class QuestionParser:
             raise InputError("n", f"must be at least 1, got {n}")
         ids, unknown = self.trained.words.encode(question)
         words = torch.tensor(ids, device=self.device)
-        hypotheses = beam_search(self.model, self.automaton, words, n=n, beam=beam)
+        hypotheses = beam_search(self.model, self.automaton, words, n=n, beam=beam, weights=self.step_weights)
         candidates = tuple(ParsedProgram(self.trained.targets.decode(h.ids, self.registry), h.log_prob)
                            for h in hypotheses)
         return QuestionParse(question, tuple(tokenize(question)), tuple(unknown), candidates)
