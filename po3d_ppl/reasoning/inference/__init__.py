@@ -90,9 +90,11 @@ class SceneReasoner:
 
         result = sample_distribution(compiled.typed, self.posteriors, self.evidence, len(self._support(compiled)),
                                      num_samples=num_samples, seed=seed)
+        # three standard errors per outcome; at least the "rule of three" bound 3/S when samples all agree
         error = float(3 * result.stderr.sum()) + 3 * (result.invalid * (1 - result.invalid) / num_samples) ** 0.5
+        error = min(max(error, 3.0 / num_samples), 1.0)
         return self._distribution(compiled, result.probs, result.invalid, "sampling", stderr=result.stderr,
-                                  error=min(error, 1.0), samples=num_samples)
+                                  error=error, samples=num_samples)
 
     def _auto(self, compiled, num_samples: int = 4096, seed: int = 0, **_):
         from po3d_ppl.reasoning.inference.enum_world import ExactUnsupported

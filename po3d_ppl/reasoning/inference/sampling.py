@@ -19,17 +19,23 @@ from po3d_ppl.reasoning.posterior import SitePosteriors
 from po3d_ppl.reasoning.values import INVALID
 
 
+def _inverse_cdf(probs: torch.Tensor, uniform: torch.Tensor) -> torch.Tensor:
+    """Index k with cdf[k-1] <= u < cdf[k] (vectorised categorical draws; ``probs`` broadcast against ``u``)."""
+    cdf = probs.cumsum(-1)
+    index = (uniform.unsqueeze(-1) >= cdf).sum(-1)
+    return index.clamp(max=probs.shape[-1] - 1)  # guard against rounding at the top of the cdf
+
+
 def _draw(probs: torch.Tensor, num_samples: int, generator: torch.Generator) -> torch.Tensor:
     """Indices ``[S, *batch]`` drawn from ``probs [*batch, K]`` (one draw per batch element and sample)."""
-    flat = probs.reshape(-1, probs.shape[-1])
-    draws = torch.multinomial(flat, num_samples, replacement=True, generator=generator)  # [B, S]
-    return draws.T.reshape(num_samples, *probs.shape[:-1])
+    uniform = torch.rand((num_samples, *probs.shape[:-1]), generator=generator, dtype=probs.dtype)
+    return _inverse_cdf(probs, uniform)
 
 
 def _draw_batched(probs: torch.Tensor, generator: torch.Generator) -> torch.Tensor:
     """One draw per leading element: ``probs [S, ..., K]`` -> ``[S, ...]``."""
-    flat = probs.reshape(-1, probs.shape[-1])
-    return torch.multinomial(flat, 1, generator=generator).reshape(probs.shape[:-1])
+    uniform = torch.rand(probs.shape[:-1], generator=generator, dtype=probs.dtype)
+    return _inverse_cdf(probs, uniform)
 
 
 class PosteriorSampleSource:

@@ -1,0 +1,112 @@
+"""SceneEvidence: shapes and errors, ground-truth evidence, the noisy sensor model, and the per-site posteriors read
+from the Pyro scene model."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pyro
+import pyro.distributions as dist
+import pytest
+import torch
+
+from po3d_ppl.errors import InputError
+from po3d_ppl.questions.toy_scenes import random_toy_scene, toy_object, toy_scene
+from po3d_ppl.reasoning import ScenePriors, SceneEvidence
+from po3d_ppl.reasoning.evidence import EvidenceError, style_index
+from po3d_ppl.reasoning.posterior import CoupledModelError, site_posteriors
+from po3d_ppl.reasoning import scene_model as scene_model_module
+from po3d_ppl.world import ontology
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return toy_scene([
+        toy_object("suv", "red", "metal", position=(0.0, 0.0, 0.0), pose_degree=100.0,
+                   parts={"hood": ("blue", "rubber")}, part_occluded_by={"roof": [1]}),
+        toy_object("jet", "blue", "rubber", "small", position=(1.0, 2.0, 0.0), occluded_by=[0]),
+    ])
+
+
+def test_certain_evidence_gives_certain_posteriors(scene):
+    post = site_posteriors(SceneEvidence.from_scene(scene))
+    assert post["subtype"].argmax(-1).tolist() == [ontology.SUBTYPES.index("suv"), ontology.SUBTYPES.index("jet")]
+    assert post["color"][0, ontology.COLORS.index("red")] == 1.0
+    assert post["occludes"][1, 0, 1] == 1.0 and post["occludes"][0, 1, 1] == 0.0  # jet occluded by the suv
+    suv = ontology.SUBTYPES.index("suv")
+    hood = ontology.PARTS["suv"].index("hood")
+    roof = ontology.PARTS["suv"].index("roof")
+    assert post["part_state"][0, suv, hood].argmax() == 1 + style_index("blue", "rubber")
+    assert post["part_occluded"][0, suv, roof, 1] == 1.0
+    assert post["part_occludes"][0, suv, roof, 1, 1] == 1.0
+    # the pose grid is anchored at the true azimuth, so index 0 holds it exactly
+    assert post["pose"][0, 0] == 1.0 and post.support["pose"][0, 0] == pytest.approx(100.0)
+    for probs in post.probs.values():
+        assert torch.allclose(probs.sum(-1), torch.ones(()).double())
+
+
+def test_noise_model_is_calibrated():
+    """Posterior confidence of the colour matches how often the posterior argmax is right (sensor model)."""
+    confidences, hits = [], []
+    for seed in range(60):
+        scene = random_toy_scene(seed, num_objects=(6, 6))
+        post = site_posteriors(SceneEvidence.from_scene(scene, noise=0.3, seed=seed))
+        truth = torch.tensor([ontology.COLORS.index(o.color) for o in scene.objects])
+        conf, guess = post["color"].max(-1)
+        confidences += conf.tolist()
+        hits += (guess == truth).tolist()
+    assert abs(np.mean(confidences) - np.mean(hits)) < 0.05
+    assert 0.6 < np.mean(hits) < 0.8  # noise 0.3: the sensor is right 70% of the time
+
+
+def test_same_seed_same_noise_and_different_seed_differs(scene):
+    a = SceneEvidence.from_scene(scene, noise=0.2, seed=3)
+    b = SceneEvidence.from_scene(scene, noise=0.2, seed=3)
+    c = SceneEvidence.from_scene(scene, noise=0.2, seed=4)
+    assert torch.equal(a.pose_support, b.pose_support) and not torch.equal(a.pose_support, c.pose_support)
+
+
+def test_wrong_shapes_and_values_give_typed_errors(scene):
+    ev = SceneEvidence.from_scene(scene)
+    fields = {f.name: getattr(ev, f.name) for f in dataclasses.fields(ev)}
+    with pytest.raises(EvidenceError, match=r"color_loglik: expected shape \[2, 8\], got \[2, 7\]"):
+        SceneEvidence(**{**fields, "color_loglik": torch.zeros(2, 7, dtype=torch.float64)})
+    with pytest.raises(EvidenceError, match="occludes_logodds: contains NaN"):
+        SceneEvidence(**{**fields, "occludes_logodds": torch.full((2, 2), float("nan"), dtype=torch.float64)})
+    with pytest.raises(EvidenceError, match="directions: missing"):
+        SceneEvidence(**{**fields, "directions": {"left": torch.zeros(3)}})
+    with pytest.raises(InputError, match="noise"):
+        SceneEvidence.from_scene(scene, noise=1.5)
+    with pytest.raises(InputError, match="priors.exists"):
+        ScenePriors(exists=1.0)
+
+
+def test_evidence_moves_between_devices(scene):
+    ev = SceneEvidence.from_scene(scene).to("cpu")
+    assert ev.subtype_loglik.device.type == "cpu" and ev.num_objects == 2
+
+
+def test_a_coupled_scene_model_is_refused_by_the_per_site_posteriors(scene, monkeypatch):
+    original = scene_model_module.scene_model
+
+    def coupled(evidence, priors=ScenePriors()):
+        latents = original(evidence, priors)
+        with pyro.plate("coupling", evidence.num_objects, dim=-2):
+            pyro.factor("colour_matches_material",
+                        (latents["color"] == latents["material"]).to(torch.float64))
+        return latents
+
+    monkeypatch.setattr("po3d_ppl.reasoning.posterior.scene_model", coupled)
+    with pytest.raises(CoupledModelError, match="couples latents"):
+        site_posteriors(SceneEvidence.from_scene(scene))
+
+
+def test_priors_matter_only_under_uncertainty(scene):
+    ev = SceneEvidence.from_scene(scene, noise=0.3, seed=1)
+    low = site_posteriors(ev, ScenePriors(exists=0.1))["exists"][:, 1]
+    high = site_posteriors(ev, ScenePriors(exists=0.9))["exists"][:, 1]
+    assert (high > low).all()
+    certain = SceneEvidence.from_scene(scene)
+    assert torch.equal(site_posteriors(certain, ScenePriors(exists=0.1))["exists"],
+                       site_posteriors(certain, ScenePriors(exists=0.9))["exists"])
