@@ -51,6 +51,8 @@ def train_parser_command(
     hidden: int = typer.Option(128, "--hidden", min=8, help="LSTM state size."),
     embed: int = typer.Option(64, "--embed", min=8, help="Word and token embedding size."),
     max_steps: int = typer.Option(None, "--max-steps", min=1, help="Stop after this many steps (smoke tests)."),
+    unconstrained_loss: bool = typer.Option(False, "--unconstrained-loss",
+                                            help="Ablation: plain softmax loss, without the type masks."),
     out: Path = typer.Option(None, "--out", help="Where to write the model files (default: models/)."),
     device: str = typer.Option("cpu", "--device", help="torch device, e.g. cpu or cuda."),
     threads: int = typer.Option(1, "--threads", min=1,
@@ -84,7 +86,7 @@ def train_parser_command(
         except InputError:  # a dataset without val questions
             pass
     config = TrainConfig(seed=seed, epochs=epochs, batch_size=batch_size, lr=lr, hidden=hidden, embed=embed,
-                         max_steps=max_steps)
+                         max_steps=max_steps, constrained_loss=not unconstrained_loss)
     console.print(f"training on {len(train)} questions, validating on {len(validation)}", highlight=False)
     start = time.perf_counter()
     with Progress(TextColumn("[bold]train parser"), BarColumn(), MofNCompleteColumn(),
@@ -144,11 +146,14 @@ def eval_parser_command(
     report.update({"data": str(data), "split": split, "beam": beam, "n": n,
                    "data_seed": _dataset_manifest(data).get("seed")})
     table = Table(title=f"question parser on {data} [{split}]")
-    for col in ("question file", "questions", "exact match", "up to part-name spelling", f"gold in {n}-best"):
+    for col in ("question file", "questions", "exact match", "up to part-name spelling", f"gold in {n}-best",
+                "spelling-ambiguous", "exact match, unambiguous"):
         table.add_column(col, justify="left" if col == "question file" else "right")
     for name, row in [*report["per_file"].items(), ("all", report)]:
+        clear = row["exact_match_unambiguous"]
         table.add_row(name, str(row["count"]), f"{row['exact_match']:.4f}", f"{row['readable_match']:.4f}",
-                      f"{row['in_n_best']:.4f}")
+                      f"{row['in_n_best']:.4f}", str(row["spelling_ambiguous"]),
+                      "-" if clear is None else f"{clear:.4f}")
     console = Console()
     console.print(table)
     worst = sorted(report["per_family"].items(), key=lambda kv: kv[1]["exact_match"])[:3]
@@ -168,6 +173,8 @@ def _train_command(data: list[Path], config, out: Path | None) -> str:
               "--lr", str(config.lr), "--hidden", str(config.hidden), "--embed", str(config.embed)]
     if config.max_steps is not None:
         words += ["--max-steps", str(config.max_steps)]
+    if not config.constrained_loss:
+        words.append("--unconstrained-loss")
     if out is not None:
         words += ["--out", str(out)]
     return shlex.join(words)

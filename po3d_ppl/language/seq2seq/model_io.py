@@ -12,18 +12,20 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import torch
 from safetensors.torch import load_file, save_file
 
 from po3d_ppl.errors import InputError, ModelFileError
 from po3d_ppl.language.ast import Program
+from po3d_ppl.language.satisfiable import respell_satisfiable, unsatisfiable_node
 from po3d_ppl.language.seq2seq.constraints import TypeAutomaton
 from po3d_ppl.language.seq2seq.decode import beam_search
 from po3d_ppl.language.seq2seq.model import ParserConfig, Seq2SeqParser
 from po3d_ppl.language.seq2seq.train import Trained
 from po3d_ppl.language.seq2seq.vocab import TargetVocabulary, WordVocabulary, tokenize
 from po3d_ppl.language.tokens import program_to_tokens
-from po3d_ppl.language.typecheck import default_registry
+from po3d_ppl.language.typecheck import check_program, default_registry
 from po3d_ppl.reasoning.registry import OperationRegistry
 
 MODEL_NAME = "question_parser"
@@ -35,10 +37,12 @@ RETRAIN = "restore it with `git checkout models/` or retrain: `po3d train parser
 
 @dataclass(frozen=True)
 class ParsedProgram:
-    """One parse: the program, its log-probability and probability under the (constrained) model."""
+    """One parse: the program, its log-probability and probability under the (constrained) model, and whether
+    some scene could satisfy it (:mod:`po3d_ppl.language.satisfiable`)."""
 
     program: Program
     log_prob: float
+    satisfiable: bool = True
 
     @property
     def probability(self) -> float:
@@ -51,7 +55,10 @@ class ParsedProgram:
 
 @dataclass(frozen=True)
 class QuestionParse:
-    """The n-best parses of a question, most probable first, and the words the parser did not know."""
+    """The n-best parses of a question and the words the parser did not know.
+
+    Candidates are ordered by probability, except that programs no scene can satisfy come after all others.
+    """
 
     question: str
     words: tuple[str, ...]
@@ -121,14 +128,35 @@ class QuestionParser:
         return cls(trained, registry, device)
 
     def parse(self, question: str, n: int = 1, beam: int = 5) -> QuestionParse:
-        """The ``n`` most probable programs for ``question`` (beam width ``max(beam, n)``)."""
+        """The ``n`` most probable programs for ``question`` (beam width ``max(beam, n)``).
+
+        Part names are written the same way for different raw names ("left head light" is ``left_head_light``
+        on cars, ``head_light_left`` on buses), so a decoded program that no scene can satisfy is respelled
+        into the satisfiable one with the same words when there is one (probabilities of decodes that end up
+        the same program add up), and otherwise ranked after the satisfiable programs. The beam search looks
+        for ``n + 2`` programs to leave room for this.
+        """
         if not isinstance(question, str) or not tokenize(question):
             raise InputError("question", f"{question!r} has no words to parse")
         if n < 1:
             raise InputError("n", f"must be at least 1, got {n}")
         ids, unknown = self.trained.words.encode(question)
         words = torch.tensor(ids, device=self.device)
-        hypotheses = beam_search(self.model, self.automaton, words, n=n, beam=beam, weights=self.step_weights)
-        candidates = tuple(ParsedProgram(self.trained.targets.decode(h.ids, self.registry), h.log_prob)
-                           for h in hypotheses)
-        return QuestionParse(question, tuple(tokenize(question)), tuple(unknown), candidates)
+        hypotheses = beam_search(self.model, self.automaton, words, n=n + 2, beam=max(beam, n + 2),
+                                 weights=self.step_weights)
+        merged: dict[tuple[str, ...], ParsedProgram] = {}
+        for hypothesis in hypotheses:
+            program = self.trained.targets.decode(hypothesis.ids, self.registry)
+            types = check_program(program, self.registry).types
+            satisfiable = unsatisfiable_node(program, types) is None
+            if not satisfiable:
+                repaired = respell_satisfiable(program, types)
+                if repaired is not None:
+                    program, satisfiable = repaired, True
+            key = tuple(program_to_tokens(program))
+            log_prob = hypothesis.log_prob
+            if key in merged:  # two decodes that denote the same program: their probabilities add up
+                log_prob = float(np.logaddexp(merged[key].log_prob, log_prob))
+            merged[key] = ParsedProgram(program, log_prob, satisfiable)
+        candidates = sorted(merged.values(), key=lambda c: (not c.satisfiable, -c.log_prob))
+        return QuestionParse(question, tuple(tokenize(question)), tuple(unknown), tuple(candidates[:n]))

@@ -16,6 +16,7 @@ import torch
 from torch import nn
 
 from po3d_ppl.errors import InputError
+from po3d_ppl.language.satisfiable import spelling_ambiguous
 from po3d_ppl.language.seq2seq.constraints import TypeAutomaton
 from po3d_ppl.language.seq2seq.data import Example
 from po3d_ppl.language.seq2seq.decode import greedy_batch
@@ -38,6 +39,8 @@ class TrainConfig:
     dropout: float = 0.1
     word_dropout: float = 0.02
     clip: float = 5.0
+    #: Mask the softmax with the type automaton (the default); False trains a plain seq2seq (ablation).
+    constrained_loss: bool = True
     #: Stop after this many optimiser steps (tests use a handful); None trains all epochs.
     max_steps: int | None = None
 
@@ -146,8 +149,9 @@ def train_parser(train: Sequence[Example], config: TrainConfig, registry: Operat
                 keep = int((batch_targets >= 0).sum(dim=1).max())
                 batch_targets = batch_targets[:, :keep].to(device)
                 logits = model(batch_words.to(device), data.lengths[index], _decoder_inputs(batch_targets))
-                allowed = masks[data.mask_ids[index, :keep].to(device)]
-                logits = logits.masked_fill(~allowed, -1e9)
+                if config.constrained_loss:
+                    allowed = masks[data.mask_ids[index, :keep].to(device)]
+                    logits = logits.masked_fill(~allowed, -1e9)
                 loss = loss_fn(logits.reshape(-1, logits.shape[-1]), batch_targets.reshape(-1))
                 optimiser.zero_grad()
                 loss.backward()
@@ -196,7 +200,9 @@ def readable_tokens(tokens: Sequence[str]) -> list[str]:
 def evaluate(trained: Trained, examples: Sequence[Example], registry: OperationRegistry, batch_size: int = 256,
              predict: Callable[[Sequence[Example]], list[list[list[str]]]] | None = None) -> dict:
     """Exact match of the best program (predicted prefix tokens == gold prefix tokens), overall, per question
-    file and per family; also the match up to part-name spelling (:func:`readable_tokens`) and, when
+    file and per family; also the match up to part-name spelling (:func:`readable_tokens`), how many gold
+    programs have a satisfiable respelling with the same words (so the text cannot decide, see
+    :func:`~po3d_ppl.language.satisfiable.spelling_ambiguous`) and the exact match on the others, and, when
     ``predict`` returns several candidates per question, how often the gold program is among them.
 
     By default predictions are constrained greedy decodes; ``predict`` substitutes another decoder (it returns,
@@ -210,7 +216,7 @@ def evaluate(trained: Trained, examples: Sequence[Example], registry: OperationR
 
     was_training = trained.model.training
     trained.model.eval()
-    counts: dict[str, list[int]] = defaultdict(lambda: [0, 0, 0, 0])
+    counts: dict[str, list[int]] = defaultdict(lambda: [0, 0, 0, 0, 0, 0])
     failures: list[dict] = []
     for start in range(0, len(examples), batch_size):
         batch = examples[start:start + batch_size]
@@ -219,20 +225,25 @@ def evaluate(trained: Trained, examples: Sequence[Example], registry: OperationR
             exact = candidates[0] == gold
             readable = readable_tokens(candidates[0]) == readable_tokens(gold)
             listed = gold in candidates
+            ambiguous = spelling_ambiguous(example.program, check_program(example.program, registry).types)
             for key in ("all", f"file:{example.source}", f"family:{example.source}/{example.family}"):
                 row = counts[key]
                 row[0] += exact
                 row[1] += readable
                 row[2] += listed
                 row[3] += 1
+                row[4] += ambiguous
+                row[5] += exact and not ambiguous
             if not exact:
                 failures.append({"question": example.question, "family": f"{example.source}/{example.family}",
                                  "predicted": " ".join(candidates[0]), "gold": " ".join(gold)})
     trained.model.train(was_training)
 
     def summary(row: list[int]) -> dict:
+        clear = row[3] - row[4]
         return {"exact_match": row[0] / row[3], "readable_match": row[1] / row[3], "in_n_best": row[2] / row[3],
-                "count": row[3]}
+                "count": row[3], "spelling_ambiguous": row[4],
+                "exact_match_unambiguous": row[5] / clear if clear else None}
 
     overall = summary(counts["all"]) if examples else {"exact_match": 0.0, "count": 0}
     return {
