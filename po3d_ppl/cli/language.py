@@ -145,10 +145,11 @@ def eval_parser_command(
     report = evaluate(parser.trained, examples, parser.registry, predict=predict)
     report.update({"data": str(data), "split": split, "beam": beam, "n": n,
                    "data_seed": _dataset_manifest(data).get("seed")})
-    table = Table(title=f"question parser on {data} [{split}]")
-    for col in ("question file", "questions", "exact match", "up to part-name spelling", f"gold in {n}-best",
-                "spelling-ambiguous", "exact match, unambiguous"):
-        table.add_column(col, justify="left" if col == "question file" else "right")
+    table = Table(title=f"question parser on {data} [{split}]", caption="exact: best program = gold; same words: "
+                  "equal up to part-name spelling; ambiguous: questions whose gold program has a satisfiable "
+                  "respelling with the same words")
+    for col in ("file", "questions", "exact", "same words", f"in {n}-best", "ambiguous", "exact, unamb."):
+        table.add_column(col, justify="left" if col == "file" else "right")
     for name, row in [*report["per_file"].items(), ("all", report)]:
         clear = row["exact_match_unambiguous"]
         table.add_row(name, str(row["count"]), f"{row['exact_match']:.4f}", f"{row['readable_match']:.4f}",
