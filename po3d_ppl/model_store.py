@@ -82,10 +82,25 @@ def write_entry(name: str, files: Iterable[Path], directory: Path | None = None,
                                       "bytes": (directory / Path(f).name).stat().st_size} for f in files},
              **metadata}
     manifest[name] = entry
+    _write_manifest(manifest, directory)
+    return entry
+
+
+def record_metrics(name: str, key: str, metrics: Mapping[str, Any], directory: Path | None = None) -> None:
+    """Store ``metrics`` under ``metrics[key]`` of model ``name``'s entry (e.g. an evaluation on held-out data),
+    keeping everything else."""
+    directory = Path(directory or models_dir())
+    manifest = read_manifest(directory)
+    if name not in manifest:
+        raise ModelFileError(f"model {name!r} has no entry in {directory / MANIFEST}")
+    manifest[name].setdefault("metrics", {})[key] = dict(metrics)
+    _write_manifest(manifest, directory)
+
+
+def _write_manifest(manifest: Mapping[str, Any], directory: Path) -> None:
     fd, tmp = tempfile.mkstemp(dir=directory, prefix=".manifest-", suffix=".json")
     with os.fdopen(fd, "w") as f:
         json.dump(manifest, f, indent=2, sort_keys=True)
         f.write("\n")
     os.chmod(tmp, 0o644)
     os.replace(tmp, directory / MANIFEST)
-    return entry

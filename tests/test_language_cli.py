@@ -53,9 +53,11 @@ def test_train_then_eval_then_parse(dataset, tmp_path):
 
     report_path = tmp_path / "eval.json"
     result = runner.invoke(app, ["eval", "parser", "--data", str(dataset), "--split", "test", "--model-dir",
-                                 str(out), "--json", str(report_path)])
+                                 str(out), "--json", str(report_path), "--record"])
     assert result.exit_code == 0, result.output
     report = json.loads(report_path.read_text())
+    recorded = json.loads((out / "manifest.json").read_text())["question_parser"]["metrics"]["eval_seed77_test"]
+    assert recorded["exact_match"] == report["exact_match"] and recorded["command"].startswith("po3d eval parser")
     assert report["count"] == sum(1 for i in range(len(PAIRS)) if i % 4 in (0, 1))
     assert set(report["per_file"]) <= {"parts", "pose", "occlusion", "obj_occlusion", "core"}
     assert 0.0 <= report["exact_match"] <= report["readable_match"] <= 1.0

@@ -125,6 +125,7 @@ def eval_parser_command(
     n: int = typer.Option(3, "--n", min=1, help="Also report how often the gold program is among the n best."),
     model_dir: Path = typer.Option(None, "--model-dir", help="Directory with the parser files (default: models/)."),
     threads: int = typer.Option(1, "--threads", min=1, help="torch CPU threads."),
+    record: bool = typer.Option(False, "--record", help="Store the summary in the model's manifest entry."),
 ) -> None:
     """Exact match of the parser's best program against the dataset's programs, overall, per file and family."""
     import torch
@@ -163,6 +164,18 @@ def eval_parser_command(
     if json_out is not None:
         json_out.parent.mkdir(parents=True, exist_ok=True)
         json_out.write_text(json.dumps(report, indent=2) + "\n")
+    if record:
+        from po3d_ppl.language.seq2seq.model_io import MODEL_NAME
+        from po3d_ppl.model_store import models_dir, record_metrics
+
+        keys = ("exact_match", "readable_match", "in_n_best", "count", "spelling_ambiguous",
+                "exact_match_unambiguous")
+        summary = {k: report[k] for k in keys}
+        summary["per_file"] = {name: {k: row[k] for k in keys} for name, row in report["per_file"].items()}
+        summary.update(data_seed=report["data_seed"], split=split, beam=beam, n=n,
+                       command=shlex.join(["po3d", "eval", "parser", "--data", str(data), "--split", split,
+                                           "--beam", str(beam), "--n", str(n)]))
+        record_metrics(MODEL_NAME, f"eval_seed{report['data_seed']}_{split}", summary, model_dir or models_dir())
 
 
 def _train_command(data: list[Path], config, out: Path | None) -> str:

@@ -76,6 +76,7 @@ def save_parser(trained: Trained, directory: Path) -> list[Path]:
     weights, vocab = directory / WEIGHTS, directory / VOCABULARY
     tensors = {k: v.detach().cpu().contiguous() for k, v in trained.model.state_dict().items()}
     save_file(tensors, str(weights), metadata={"format": str(FORMAT)})
+    weights.chmod(0o644)
     vocab.write_text(json.dumps({
         "format": FORMAT,
         "config": trained.model.config.to_dict(),
