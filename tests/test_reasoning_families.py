@@ -1,6 +1,6 @@
 """Every question family, on small scenes with random evidence: the exact engine equals brute-force enumeration
 of all joint assignments run through the reference executor (within 1e-6), the dense path equals it too, and 4,096
-posterior samples land within 0.03 total variation."""
+posterior samples land within 0.03 total variation of the exact answer."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 from po3d_ppl.questions.generator import SceneQuestionGenerator
 from po3d_ppl.questions.template_format import load_template_file, template_files
 from po3d_ppl.questions.toy_scenes import random_toy_scene
-from po3d_ppl.reasoning import SceneEvidence, SceneReasoner
+from po3d_ppl.reasoning import SceneReasoner
 from reasoning_bruteforce import brute_force, sparse_random_evidence
 
 FAMILIES = [(f, t.index) for f in template_files() for t in load_template_file(f)]
@@ -47,7 +47,7 @@ def test_every_family_has_a_small_scene_case(family_cases):
 def test_exact_and_dense_equal_brute_force_for_every_family(family_cases):
     for (filename, index), (seed, scene, cand) in sorted(family_cases.items()):
         program = [{k: v for k, v in n.items() if k != "_output"} for n in cand.program]
-        for trial in range(2):
+        for trial in range(1):
             rng = np.random.default_rng(1000 * seed + trial)
             ev = sparse_random_evidence(scene, rng, num_uncertain=8)
             oracle, oracle_invalid = brute_force(program, ev)
@@ -63,11 +63,11 @@ def test_exact_and_dense_equal_brute_force_for_every_family(family_cases):
 def test_sampling_is_close_to_exact_for_every_family(family_cases):
     worst = 0.0
     for (filename, index), (seed, scene, cand) in sorted(family_cases.items()):
-        reasoner = SceneReasoner(SceneEvidence.from_scene(scene, noise=0.1, seed=seed))
+        reasoner = SceneReasoner(sparse_random_evidence(scene, np.random.default_rng(seed + 1), num_uncertain=14))
         program = [{k: v for k, v in n.items() if k != "_output"} for n in cand.program]
         exact = reasoner.infer(program, "exact")
         sampled = reasoner.infer(program, "sampling", num_samples=4096, seed=seed)
         tv = _tv(exact, sampled.probs, sampled.invalid)
         worst = max(worst, tv)
         assert tv < 0.03, (filename, index, cand.question, exact.probs, sampled.probs)
-    assert worst > 0.0  # the noisy evidence really made answers uncertain somewhere
+    assert worst > 0.0  # the random evidence really made answers uncertain somewhere

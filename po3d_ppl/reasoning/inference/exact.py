@@ -206,12 +206,7 @@ def _product_along(values: torch.Tensor, axis: int, size: int) -> torch.Tensor:
 def _pivoted_product(world: EnumWorld, off: torch.Tensor, pivots: list[Dim], at_block, axis: int) -> torch.Tensor:
     """``prod_e value(e)`` over the plate ``axis`` where pivots select elements: ``at_block(block)`` at the element
     a group of coinciding pivots denotes, ``off`` at every other element; summed over how pivots may coincide."""
-    size = world.num_objects if axis == -2 else world.num_parts
-    element = world.index if axis == -2 else world.slot
-    is_pivot = torch.zeros((), dtype=torch.bool)
-    for dim in pivots:
-        is_pivot = is_pivot | (element == world.ar(dim))
-    rest = _product_along(torch.where(is_pivot, torch.ones((), dtype=DTYPE), _rank(off, -axis)), axis, size)
+    rest = _product_except(world, _rank(off, -axis), pivots, axis)
     total = torch.zeros((), dtype=DTYPE)
     for partition in _partitions(pivots):
         term = _indicator(world, partition) * rest
@@ -219,6 +214,20 @@ def _pivoted_product(world: EnumWorld, off: torch.Tensor, pivots: list[Dim], at_
             term = term * at_block(tuple(block))
         total = total + term
     return total
+
+
+def _product_except(world: EnumWorld, off: torch.Tensor, pivots: list[Dim], axis: int) -> torch.Tensor:
+    """``prod_e off(e)`` over the plate ``axis``, skipping the elements the pivots denote (a tensor over the pivot
+    dimensions). Built one element at a time, so the plate axis and the pivot axes never meet in memory."""
+    size = world.num_objects if axis == -2 else world.num_parts
+    out = torch.ones((), dtype=DTYPE)
+    for e in range(size):
+        value = off.narrow(axis, e if off.shape[axis] > 1 else 0, 1)
+        skip = torch.zeros((), dtype=torch.bool)
+        for dim in pivots:
+            skip = skip | (world.ar(dim) == e)
+        out = out * torch.where(skip, torch.ones((), dtype=DTYPE), value)
+    return out
 
 
 def _partitions(items: list) -> list[list[list]]:
