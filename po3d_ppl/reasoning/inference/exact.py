@@ -22,6 +22,8 @@ from po3d_ppl.reasoning.posterior import SitePosteriors
 
 #: Largest intermediate tensor (elements) the exact engine will build before giving up (``auto`` then samples).
 MAX_ELEMENTS = 2.5e7
+#: Plate products over at most this many elements are vectorised; larger ones loop over the plate's elements.
+_VECTOR_LIMIT = 1 << 20
 
 
 class ExactTooCostly(ExactUnsupported):
@@ -95,7 +97,8 @@ class _Contractor:
             raise ExactTooCostly(f"exact inference needs a {size:.2e}-element tensor (limit {MAX_ELEMENTS:.0e})")
         if not operands:
             return torch.ones((), dtype=DTYPE)
-        result = torch.einsum(*operands, [-p for p in out])
+        with torch.backends.opt_einsum.flags(enabled=True, strategy="greedy"):  # path search dominates otherwise
+            result = torch.einsum(*operands, [-p for p in out])
         rank = max([-p for p in out], default=0)
         shape = [1] * rank
         for p in out:
@@ -220,6 +223,12 @@ def _product_except(world: EnumWorld, off: torch.Tensor, pivots: list[Dim], axis
     """``prod_e off(e)`` over the plate ``axis``, skipping the elements the pivots denote (a tensor over the pivot
     dimensions). Built one element at a time, so the plate axis and the pivot axes never meet in memory."""
     size = world.num_objects if axis == -2 else world.num_parts
+    element = world.index if axis == -2 else world.slot
+    skip = torch.zeros((), dtype=torch.bool)
+    for dim in pivots:
+        skip = skip | (element == world.ar(dim))
+    if math.prod(torch.broadcast_shapes(skip.shape, off.shape)) <= _VECTOR_LIMIT:  # small: all at once
+        return _product_along(torch.where(skip, torch.ones((), dtype=DTYPE), off), axis, size)
     out = torch.ones((), dtype=DTYPE)
     for e in range(size):
         value = off.narrow(axis, e if off.shape[axis] > 1 else 0, 1)
