@@ -7,8 +7,8 @@ enumerated trace) and answers any number of programs:
   objects;
 - ``dense``: every joint assignment at once (``dense.py``), for small scenes and cross-checks;
 - ``sampling``: vectorised posterior samples (``sampling.py``) with standard errors;
-- ``auto``: ``exact`` unless its tensors would exceed ``exact.MAX_ELEMENTS`` or the program needs a structure it
-  does not support, then ``sampling`` (the reason is recorded in ``info``);
+- ``auto``: ``exact`` unless its tensors would exceed ``AUTO_EXACT_ELEMENTS`` (beyond which sampling is faster) or
+  the program needs a structure it does not support, then ``sampling`` (the reason is recorded in ``info``);
 - ``generic``: Pyro's ``TraceEnum_ELBO.compute_marginals`` on the same factor graph (``generic.py``), a slow
   reference for benchmarks and cross-checks;
 - ``thresholded`` and ``soft``: the NS-VQA and P-NSVQA baselines (``baselines.py``).
@@ -24,6 +24,9 @@ from po3d_ppl.reasoning.evidence import ScenePriors, SceneEvidence
 from po3d_ppl.reasoning.posterior import SitePosteriors, site_posteriors
 
 METHODS = ("auto", "exact", "sampling", "dense", "generic", "thresholded", "soft")
+#: ``auto`` answers exactly while the exact engine's largest tensor stays under this many elements (measured: past
+#: a few million elements exact takes longer than 4,096 samples on one core).
+AUTO_EXACT_ELEMENTS = 2e6
 
 
 class SceneReasoner:
@@ -72,10 +75,11 @@ class SceneReasoner:
         return AnswerDistribution(answers, float(invalid), method, compiled.answer_type, error=error, stderr=errs,
                                   info=extra)
 
-    def _exact(self, compiled, **_):
+    def _exact(self, compiled, max_elements: float | None = None, **_):
         from po3d_ppl.reasoning.inference.exact import exact_distribution
 
-        result = exact_distribution(compiled.typed, self.posteriors, self.evidence, len(self._support(compiled)))
+        result = exact_distribution(compiled.typed, self.posteriors, self.evidence, len(self._support(compiled)),
+                                    max_elements=max_elements)
         return self._distribution(compiled, result.probs, result.invalid, "exact", peak_elements=result.peak_elements)
 
     def _dense(self, compiled, **_):
@@ -97,10 +101,11 @@ class SceneReasoner:
                                   error=error, samples=num_samples)
 
     def _auto(self, compiled, num_samples: int = 4096, seed: int = 0, **_):
+        from po3d_ppl.reasoning.inference import exact as exact_module
         from po3d_ppl.reasoning.inference.enum_world import ExactUnsupported
 
         try:
-            return self._exact(compiled)
+            return self._exact(compiled, max_elements=min(AUTO_EXACT_ELEMENTS, exact_module.MAX_ELEMENTS))
         except ExactUnsupported as reason:
             dist = self._sampling(compiled, num_samples=num_samples, seed=seed)
             dist.info["fallback"] = str(reason)

@@ -49,8 +49,9 @@ def _rank(t: torch.Tensor, rank: int) -> torch.Tensor:
 
 
 class _Contractor:
-    def __init__(self, world: EnumWorld):
+    def __init__(self, world: EnumWorld, max_elements: float = MAX_ELEMENTS):
         self.world = world
+        self.max_elements = max_elements
         self.kind = {d.pos: d.kind for d in world.dims}
         self.kind[-1] = "plate"
         self.kind[-2] = "plate"
@@ -93,8 +94,8 @@ class _Contractor:
         out = sorted(p for p in present if keep(p))
         size = math.prod(self._size(p) for p in out)
         self.peak = max(self.peak, size)
-        if size > MAX_ELEMENTS:
-            raise ExactTooCostly(f"exact inference needs a {size:.2e}-element tensor (limit {MAX_ELEMENTS:.0e})")
+        if size > self.max_elements:
+            raise ExactTooCostly(f"exact inference needs a {size:.2e}-element tensor (limit {self.max_elements:.0e})")
         if not operands:
             return torch.ones((), dtype=DTYPE)
         with torch.backends.opt_einsum.flags(enabled=True, strategy="greedy"):  # path search dominates otherwise
@@ -353,13 +354,14 @@ def _count_chain(world: EnumWorld, aggregates, weights: dict) -> torch.Tensor:
     return state
 
 
-def exact_distribution(typed, posteriors: SitePosteriors, evidence: SceneEvidence, num_values: int) -> ExactResult:
+def exact_distribution(typed, posteriors: SitePosteriors, evidence: SceneEvidence, num_values: int,
+                       max_elements: float | None = None) -> ExactResult:
     """Exact answer distribution of ``typed`` over answer ids ``0..num_values-1`` plus the invalid mass."""
     world = EnumWorld(posteriors, evidence)
     value = run_program(typed, world)
     if not isinstance(value, torch.Tensor):
         raise ExactUnsupported("the program's result is not an answer value")
-    contractor = _Contractor(world)
+    contractor = _Contractor(world, MAX_ELEMENTS if max_elements is None else max_elements)
     mass = joint_mass(world, contractor)
     if any(contractor.kind.get(p) in ("local", "part") for p in _present(value)):
         raise ExactUnsupported("the answer depends on a latent that is not a pivot attribute")

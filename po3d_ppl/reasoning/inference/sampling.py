@@ -32,12 +32,6 @@ def _draw(probs: torch.Tensor, num_samples: int, generator: torch.Generator) -> 
     return _inverse_cdf(probs, uniform)
 
 
-def _draw_batched(probs: torch.Tensor, generator: torch.Generator) -> torch.Tensor:
-    """One draw per leading element: ``probs [S, ..., K]`` -> ``[S, ...]``."""
-    uniform = torch.rand(probs.shape[:-1], generator=generator, dtype=probs.dtype)
-    return _inverse_cdf(probs, uniform)
-
-
 class PosteriorSampleSource:
     """Lazily draws object-centric latent values (``ConcreteWorld``'s source protocol)."""
 
@@ -59,10 +53,17 @@ class PosteriorSampleSource:
             return post.support["pose"].gather(-1, index.T).T
         if name == "occludes":
             return _draw(post.probs["occludes"], self.s, self.gen)
+        # part slots of each sample's subtype: compare one uniform per slot with the cdf's k-th column, gathered
+        # by subtype one column at a time (never materialising [S, N, P, ..., K])
         subtype = self("subtype")  # [S, N]
-        n = subtype.shape[-1]
-        table = post.probs[name][torch.arange(n), subtype]  # [S, N, P, ...] for each sample's subtype
-        return _draw_batched(table, self.gen)
+        table = post.probs[name]  # [N, 21, P, ..., K]
+        cdf = table.cumsum(-1)
+        objects = torch.arange(table.shape[0])
+        uniform = torch.rand((self.s, *table.shape[:1], *table.shape[2:-1]), generator=self.gen, dtype=table.dtype)
+        index = torch.zeros(uniform.shape, dtype=torch.long)
+        for k in range(table.shape[-1] - 1):
+            index += uniform >= cdf[..., k][objects, subtype]
+        return index
 
 
 @dataclass(frozen=True)
