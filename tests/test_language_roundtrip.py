@@ -133,3 +133,11 @@ def test_unknown_token_operation_suggests():
 
     with pytest.raises(UnknownNameError, match="did you mean 'unique'"):
         program_from_tokens(["uniqe", "scene"])
+
+
+@SETTINGS
+@given(programs().flatmap(lambda p: st.tuples(st.just(p), reordered(p))))
+def test_canonical_order_is_the_parsers_order(pair):
+    program, shuffled = pair
+    assert shuffled.canonical() == program
+    assert program_to_tokens(shuffled) == program_to_tokens(program)
