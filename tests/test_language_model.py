@@ -47,3 +47,10 @@ def test_shipped_parser_reports_unknown_words_and_still_parses(parser):
     result = parser.parse("How many chartreuse cars are there??")
     assert result.unknown_words == ("chartreuse",)
     assert check_program(result.best.program).type == "Integer"
+
+
+def test_a_question_about_a_part_the_object_cannot_have_keeps_its_faithful_parse(parser):
+    # cars have front_left_wheel / front_right_wheel; "front wheel" (wheel_front) exists on bikes only
+    best = parser.parse("What color is the front wheel of the big red car?", n=2).best
+    assert "partfilter_partname[wheel_front]" in best.tokens
+    assert not best.satisfiable

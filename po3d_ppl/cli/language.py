@@ -27,7 +27,8 @@ def parse(
             "question": question,
             "unknown_words": list(result.unknown_words),
             "programs": [{"program": program_to_text(c.program), "probability": c.probability,
-                          "log_prob": c.log_prob, "tokens": c.tokens, "json": program_to_json(c.program)}
+                          "log_prob": c.log_prob, "satisfiable": c.satisfiable, "tokens": c.tokens,
+                          "json": program_to_json(c.program)}
                          for c in result.candidates],
         }, indent=2))
         return
@@ -36,7 +37,8 @@ def parse(
         console.print("unknown words (read as <unk>): " + ", ".join(result.unknown_words), style="yellow",
                       markup=False, highlight=False)
     for rank, candidate in enumerate(result.candidates, 1):
-        console.print(f"[bold]#{rank}[/]  p = {candidate.probability:.4f}", highlight=False)
+        note = "" if candidate.satisfiable else "  (asks about objects or parts no scene can have)"
+        console.print(f"[bold]#{rank}[/]  p = {candidate.probability:.4f}{note}", highlight=False)
         console.print(program_to_text(candidate.program, style="pipeline"), markup=False, highlight=False,
                       soft_wrap=True)
 

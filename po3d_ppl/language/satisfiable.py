@@ -8,8 +8,8 @@ rejects a program that some scene could satisfy.
 
 Why: the public verbalisation gives 17 pairs of raw part names the same words ("back left wheel" is
 ``back_left_wheel`` on cars and ``wheel_back_left`` on buses and planes). When a question names the object's
-category, only one spelling can exist on it; the question parser uses this analysis to rank such impossible
-parses below possible ones.
+category, only one spelling can exist on it; the question parser uses this analysis to respell such impossible
+parses into the possible one.
 """
 
 from __future__ import annotations

@@ -55,10 +55,7 @@ class ParsedProgram:
 
 @dataclass(frozen=True)
 class QuestionParse:
-    """The n-best parses of a question and the words the parser did not know.
-
-    Candidates are ordered by probability, except that programs no scene can satisfy come after all others.
-    """
+    """The n-best parses of a question (most probable first) and the words the parser did not know."""
 
     question: str
     words: tuple[str, ...]
@@ -134,8 +131,10 @@ class QuestionParser:
         Part names are written the same way for different raw names ("left head light" is ``left_head_light``
         on cars, ``head_light_left`` on buses), so a decoded program that no scene can satisfy is respelled
         into the satisfiable one with the same words when there is one (probabilities of decodes that end up
-        the same program add up), and otherwise ranked after the satisfiable programs. The beam search looks
-        for ``n + 2`` programs to leave room for this.
+        the same program add up). Otherwise it keeps its rank, flagged ``satisfiable=False``: it is what the
+        question says (e.g. "the front wheel of the car", a part cars do not have), and promoting a less
+        probable parse would answer another question. The beam search looks for ``n + 2`` programs to leave
+        room for merging.
         """
         if not isinstance(question, str) or not tokenize(question):
             raise InputError("question", f"{question!r} has no words to parse")
@@ -159,5 +158,5 @@ class QuestionParser:
             if key in merged:  # two decodes that denote the same program: their probabilities add up
                 log_prob = float(np.logaddexp(merged[key].log_prob, log_prob))
             merged[key] = ParsedProgram(program, log_prob, satisfiable)
-        candidates = sorted(merged.values(), key=lambda c: (not c.satisfiable, -c.log_prob))
+        candidates = sorted(merged.values(), key=lambda c: -c.log_prob)
         return QuestionParse(question, tuple(tokenize(question)), tuple(unknown), tuple(candidates[:n]))
