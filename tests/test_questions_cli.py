@@ -57,9 +57,9 @@ def test_execute_reports_invalid_programs(monkeypatch, capsys, scene_file):
 
 @pytest.mark.parametrize(("args", "message"), [
     (["--program", json.dumps(PROGRAM[:1] + [{"type": "filter_colour", "inputs": [0], "value_inputs": ["red"]}])],
-     "unknown operation in program[1] 'filter_colour'; did you mean 'filter_color'"),
+     "unknown operation 'filter_colour'; did you mean 'filter_color'"),
     (["--program", json.dumps(PROGRAM[:2] + [{"type": "unique", "inputs": [7]}])],
-     "program[2] (unique): input 7 does not name an earlier node"),
+     "unique: input 7 must be the index of an earlier node (0..1) (node 2)"),
     (["--program", "[{"], "--program: not valid JSON"),
     (["--program", "no_such_file.json"], "is neither a JSON program list nor an existing file"),
     (["--program", json.dumps(PROGRAM), "--index", "3"], "--index: must be in 0..0"),

@@ -6,10 +6,10 @@ import dataclasses
 
 import pytest
 
-from po3d_ppl.errors import Po3dError, SceneFormatError, UnknownNameError
+from po3d_ppl.errors import InputError, Po3dError, SceneFormatError, UnknownNameError
+from po3d_ppl.language import ProgramArityError, ProgramStructureError, ProgramTypeError, ProgramValueError
 from po3d_ppl.questions.context import SceneContext
 from po3d_ppl.questions.executor import execute
-from po3d_ppl.questions.program import ProgramError
 from po3d_ppl.questions.reference import missing_references
 from po3d_ppl.questions.toy_scenes import toy_object, toy_scene
 from po3d_ppl.reasoning.registry import REGISTRY
@@ -237,15 +237,15 @@ def test_public_node_spellings_and_outputs(scene):
 @pytest.mark.parametrize(("program", "error", "text"), [
     ([N("scene"), N("filtr_color", 0, value="red")], UnknownNameError, "did you mean 'filter_color'"),
     ([N("scene"), N("filter_color", 0, value="rde")], UnknownNameError, "did you mean 'red'"),
-    ([N("scene"), N("filter_shape", 0, value="wheel")], UnknownNameError, "Shape value in program[1]"),
-    ([N("scene"), N("count", 2)], ProgramError, "program[1] (count): input 2 does not name an earlier node"),
-    ([N("scene"), N("count", 0, 0)], ProgramError, "takes 1 input(s), got 2"),
-    ([N("scene"), N("query_color", 0)], ProgramError, "accepts (Object)"),
-    ([N("scene"), {"type": "filter_color", "inputs": [0]}], ProgramError, "takes one Color value"),
-    ([N("scene"), {"inputs": [0]}], ProgramError, "program[1]: a node needs a 'type'"),
-    ([], ProgramError, "empty"),
-    ("scene", ProgramError, "expected a list"),
-    ([N("scene"), {"type": "count", "inputs": "0"}], ProgramError, "'inputs' must be a list"),
+    ([N("scene"), N("filter_shape", 0, value="wheel")], UnknownNameError, "unknown Shape value 'wheel'"),
+    ([N("scene"), N("count", 2)], ProgramStructureError, "count: input 2 must be the index of an earlier node"),
+    ([N("scene"), N("count", 0, 0)], ProgramArityError, "count takes 1 input(s), got 2"),
+    ([N("scene"), N("query_color", 0)], ProgramTypeError, "the first input must be Object, but it is ObjectSet"),
+    ([N("scene"), {"type": "filter_color", "inputs": [0]}], ProgramValueError, "needs a Color value"),
+    ([N("scene"), {"inputs": [0]}], InputError, "program[1]: needs the operation name under 'type'"),
+    ([], InputError, "empty"),
+    ("scene", InputError, "program: not valid JSON"),
+    ([N("scene"), {"type": "count", "inputs": "0"}], InputError, "program[1].inputs: must be a list"),
 ])
 def test_bad_programs_raise_typed_errors(scene, program, error, text):
     with pytest.raises(error) as exc:

@@ -8,14 +8,12 @@ reports which node it was.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 from po3d_ppl.questions import reference
 from po3d_ppl.questions.context import SceneContext
-from po3d_ppl.questions.program import ProgramNode, check_program, parse_program, to_public_output
+from po3d_ppl.questions.program import checked_program, to_public_output
 from po3d_ppl.questions.reference import InvalidStep
-from po3d_ppl.reasoning.registry import Operation
 from po3d_ppl.world.scene import Scene
 
 __all__ = ["ExecutionResult", "InvalidStep", "execute", "execute_nodes", "reference"]
@@ -52,12 +50,13 @@ def _context(scene: Scene | SceneContext) -> SceneContext:
     return scene if isinstance(scene, SceneContext) else SceneContext(scene)
 
 
-def execute_nodes(ctx: SceneContext, nodes: Sequence[ProgramNode], ops: Sequence[Operation]) -> ExecutionResult:
-    """Run already-checked nodes (``ops`` from :func:`check_program`)."""
+def execute_nodes(ctx: SceneContext, typed) -> ExecutionResult:
+    """Run an already type-checked program (a ``po3d_ppl.language.TypedProgram``)."""
     outputs: list = []
-    types = tuple(op.output for op in ops)
-    for index, (node, op) in enumerate(zip(nodes, ops, strict=True)):
-        args = [outputs[i] for i in node.inputs] + list(node.value_inputs)
+    types = typed.types
+    for index, typed_node in enumerate(typed.nodes):
+        node, op = typed_node.node, typed_node.operation
+        args = [outputs[i] for i in node.inputs] + ([] if node.value is None else [node.value])
         try:
             outputs.append(op.reference_fn(ctx, *args))
         except InvalidStep as exc:
@@ -66,15 +65,17 @@ def execute_nodes(ctx: SceneContext, nodes: Sequence[ProgramNode], ops: Sequence
 
 
 def execute(scene: Scene | SceneContext, program: object) -> ExecutionResult:
-    """Run a public program (list of nodes; ``_output`` is ignored) on a scene.
+    """Run a public program (list of nodes; ``_output`` is ignored), a ``Program`` or a ``TypedProgram`` on a
+    scene.
 
-    Raises :class:`~po3d_ppl.questions.program.ProgramError` / ``UnknownNameError`` for an ill-formed program and
-    ``SceneFormatError`` for a malformed scene; an invalid step is a result, not an error.
+    Raises the language stage's typed errors (``ProgramError`` subclasses, ``UnknownNameError``, ``InputError``)
+    for an ill-formed program and ``SceneFormatError`` for a malformed scene; an invalid step is a result, not an
+    error.
     """
-    nodes = parse_program(program)
-    ops = check_program(nodes)
-    for index, op in enumerate(ops):
+    typed = checked_program(program)
+    for index, typed_node in enumerate(typed.nodes):
+        op = typed_node.operation
         if op.reference_fn is None:
             raise NotImplementedError(f"program[{index}]: operation {op.name}{op.signature} has no reference "
                                       "semantics (register one with register_reference)")
-    return execute_nodes(_context(scene), nodes, ops)
+    return execute_nodes(_context(scene), typed)
