@@ -124,6 +124,7 @@ class EnumWorld(LatentWorld):
         #: compacted per-object supports of object sites: name -> (dim, values [N, E])
         self._object_sites: dict[str, tuple[Dim, torch.Tensor]] = {}
         self._part_sites: dict[str, tuple[Dim, torch.Tensor]] = {}
+        self._placed: dict[str, torch.Tensor] = {}
         self._copies: dict[tuple, tuple[Dim, torch.Tensor]] = {}
         self._pair_reads: dict[tuple, torch.Tensor] = {}
         self.factors: list[Factor] = []
@@ -150,15 +151,17 @@ class EnumWorld(LatentWorld):
             probs = self.post.probs[name]
             support = self.post.support[name]
             support = support.unsqueeze(0) if support.dim() == 1 else support
-            probs_c, vals_c = _compact(probs, support.to(probs.dtype if name == "pose" else support.dtype))
+            probs_c, vals_c = _compact(probs, support)
             dim = self.alloc(name, probs_c.shape[-1], "local")
             self.q[dim] = probs_c[self._ar_n, self.ar(dim)]
             self._object_sites[name] = (dim, vals_c)
+            self._placed[name] = vals_c[self._ar_n, self.ar(dim)]
         return self._object_sites[name]
 
     def _object_values(self, name: str) -> torch.Tensor:
-        dim, vals = self._object_site(name)
-        return vals[self._ar_n, self.ar(dim)]
+        """The site's values for the generic object, placed on its dimension (computed once)."""
+        self._object_site(name)
+        return self._placed[name]
 
     def _part_site(self, name: str) -> tuple[Dim, torch.Tensor]:
         if name not in self._part_sites:
@@ -172,12 +175,12 @@ class EnumWorld(LatentWorld):
             dim = self.alloc(name, probs_c.shape[-1], "part")
             self.q[dim] = probs_c[self._ar_n, self.ar(sub_dim), self._ar_p, self.ar(dim)]
             self._part_sites[name] = (dim, vals_c)
+            self._placed[name] = vals_c[self._ar_n, self.ar(sub_dim), self._ar_p, self.ar(dim)]
         return self._part_sites[name]
 
     def _part_values(self, name: str) -> torch.Tensor:
-        dim, vals = self._part_site(name)
-        sub_dim, _ = self._object_site("subtype")
-        return vals[self._ar_n, self.ar(sub_dim), self._ar_p, self.ar(dim)]
+        self._part_site(name)
+        return self._placed[name]
 
     @property
     def exists(self):
