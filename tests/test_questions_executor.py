@@ -154,6 +154,55 @@ def test_parts_and_super_part_names(scene):
     assert run(scene, *bare, N("partquery_partname", 3)).answer == "back_right_wheel"
 
 
+def test_canonical_part_names():
+    assert ontology.canonical_part_name("wheel_back_left") == "back_left_wheel"
+    assert ontology.canonical_part_name("back_left_wheel") == "back_left_wheel"
+    assert ontology.canonical_part_name("right_mirror") == "mirror_right"
+    assert ontology.canonical_part_name("wheel") == "wheel"  # super-part names map to themselves
+    assert ontology.canonical_part_name("seat") == "seat"  # raw and super-part at once
+    with pytest.raises(UnknownNameError, match="wheel_back_left"):
+        ontology.canonical_part_name("wheel_back_lft")
+    canonical = ontology.CANONICAL_PARTNAME_VALUES
+    assert len(canonical) == len(ontology.PARTNAME_VALUES) - 17 and set(canonical) <= set(ontology.PARTNAME_VALUES)
+    # one canonical name per wording: no two canonical values read the same
+    words = [ontology.readable_name(v) for v in canonical]
+    assert len(set(words)) == len(words)
+    assert {ontology.readable_name(v) for v in ontology.PARTNAME_VALUES} == set(words)
+
+
+def test_part_names_match_by_words_so_both_spellings_mean_the_same():
+    """"back left wheel" is back_left_wheel on cars and wheel_back_left on buses: either spelling selects both."""
+    s = toy_scene([
+        toy_object("sedan", "red", parts={"back_left_wheel": ("blue", "metal")},
+                   part_occluded_by={"back_right_wheel": (1,)}),
+        toy_object("school", "gray", parts={"wheel_back_left": ("green", "rubber"), "door_front_right":
+                                            ("yellow", "metal")}, position=(2, 0, 0),
+                   part_occluded_by={"wheel_back_right": (0,)}),
+    ])
+    car_wheel = (0, ontology.part_id("sedan", "back_left_wheel"))
+    bus_wheel = (1, ontology.part_id("school", "wheel_back_left"))
+    parts = [N("scene"), N("object2part_all", 0)]
+    for spelling in ("back_left_wheel", "wheel_back_left"):
+        assert run(s, *parts, N("partfilter_partname", 1, value=spelling)).answer == {car_wheel, bus_wheel}
+    # (occluded parts are reachable through object2part_all)
+    assert run(s, *parts, N("partfilter_partname", 1, value="wheel_back_right")).answer == {
+        (0, ontology.part_id("sedan", "back_right_wheel")), (1, ontology.part_id("school", "wheel_back_right"))}
+    # a program with either spelling gives the same answer; the part's own name stays raw
+    for bus_spelling, car_spelling in (("door_front_right", "front_right_door"),
+                                       ("front_right_door", "door_front_right")):
+        for spelling in (bus_spelling, car_spelling):
+            door = [N("scene"), N("filter_shape", 0, value="bus"), N("unique", 1), N("object2part", 2),
+                    N("partfilter_partname", 3, value=spelling), N("unique", 4)]
+            assert run(s, *door, N("partquery_color", 5)).answer == "yellow"
+            assert run(s, *door, N("partquery_partname", 5)).answer == "door_front_right"
+    colours = [N("scene"), N("object2part", 0), N("partfilter_color", 1, value="blue"), N("unique", 2),
+               N("partquery_partname", 3)]
+    assert run(s, *colours).answer == "back_left_wheel"
+    # a name the object does not have selects nothing, whatever the spelling
+    car = [N("scene"), N("filter_shape", 0, value="car"), N("unique", 1), N("object2part_all", 2)]
+    assert run(s, *car, N("partfilter_partname", 3, value="wheel_front")).answer == frozenset()
+
+
 def test_pose_labels_dead_zones_and_relations(scene):
     pose = [N("scene"), N("filter_pose", 0, value="back_pose")]
     assert run(scene, *pose).answer == {0}

@@ -15,6 +15,7 @@ from po3d_ppl.questions.scene_questions import generate_questions
 from po3d_ppl.questions.template_format import load_template_file, template_files
 from po3d_ppl.questions.toy_scenes import random_toy_scene, toy_object, toy_scene
 from po3d_ppl.reasoning.registry import REGISTRY
+from po3d_ppl.world import ontology
 
 ALL_FAMILIES = [(f, t.index) for f in template_files() for t in load_template_file(f)]
 FILTERS = ("filter_pose", "filter_size", "filter_color", "filter_material", "filter_shape", "partfilter_size",
@@ -130,6 +131,40 @@ def test_constraints_are_respected(generated):
             occluded = next(n["_output"] for k, n in enumerate(cand.program)
                             if fns[k] == "partfilter_partname")
             assert cand.program[-2]["_output"] not in occluded  # OUT_NEQ between a set and a member
+
+
+def test_generated_programs_use_one_spelling_per_part_name(generated):
+    """Part-name values are canonical (one raw spelling per wording), yet select parts of either spelling."""
+    values, other_spelling = Counter(), 0
+    for _, cand in generated:
+        for node in cand.program:
+            if node["type"] == "partfilter_partname":
+                value = node["value_inputs"][0]
+                assert ontology.canonical_part_name(value) == value, (cand.question, value)
+                values[value] += 1
+    ambiguous = {ontology.canonical_part_name(n) for n in ontology.RAW_PART_NAMES
+                 if ontology.canonical_part_name(n) != n}
+    assert values.keys() & ambiguous  # the canonical spelling of a name with two spellings is used
+    # and it denotes parts spelled the other way (buses' wheel_back_left for back_left_wheel ...)
+    for scene, cand in generated:
+        for k, node in enumerate(cand.program):
+            if node["type"] == "partfilter_partname" and node["value_inputs"][0] in ambiguous:
+                for member in node["_output"]:
+                    obj, part = (int(x) for x in member.split("_"))
+                    other_spelling += ontology.PARTS[scene.objects[obj].subtype][part] != node["value_inputs"][0]
+    assert other_spelling > 0
+
+
+def test_a_bus_part_is_asked_about_in_the_canonical_spelling():
+    scene = toy_scene([toy_object("school", "red", parts={"wheel_back_left": ("blue", "metal")}),
+                       toy_object("sedan", "green", position=(2, 0, 0))])
+    questions = [c for seed in range(10) for c in SceneQuestionGenerator(scene, seed).candidates("parts.json", 0)]
+    named = [c for c in questions if any(n["value_inputs"] == ["back_left_wheel"] for n in c.program)]
+    assert named, [c.question for c in questions]
+    for cand in named:
+        assert "back left wheel" in cand.question
+        assert all(n["value_inputs"] != ["wheel_back_left"] for n in cand.program)
+        assert _run_nodes(scene, cand.program).valid
 
 
 def test_height_depth_questions_use_vertical_relations(generated):

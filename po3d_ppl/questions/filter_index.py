@@ -5,6 +5,10 @@ the generator's depth-first search tries hundreds of filter keys with a few inte
 filter programs. Objects are bits of a Python int by index; parts are bits in :attr:`FilterIndex.parts` order (the
 parts any program can reach: recoloured or occluded ones). Keys are tuples of values (``None`` = no filter on that
 slot) aligned with a tuple of slot types such as ``("Size", "Color", "Material", "Shape")``.
+
+Part names are indexed under their canonical spelling (``ontology.canonical_part_name``: ``wheel_back_left`` on a
+bus is filed under ``back_left_wheel``, the name that reads the same) and their super-part name, so generated
+programs use one spelling per wording and the program is a function of the question text.
 """
 
 from __future__ import annotations
@@ -36,7 +40,7 @@ class FilterIndex:
         for p, bit in self.part_bit.items():
             raw = ctx.part_names[p]
             style = ctx.part_style(p)
-            pairs = [("Partname", raw), ("Partname", ontology.super_part_name(raw))]
+            pairs = [("Partname", ontology.canonical_part_name(raw)), ("Partname", ontology.super_part_name(raw))]
             if style is not None:
                 pairs += [("Size", ctx.objects[p[0]].size), ("Color", style.color), ("Material", style.material)]
             for slot, value in pairs:

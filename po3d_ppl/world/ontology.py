@@ -115,8 +115,43 @@ SUPER_PART_NAMES: tuple[str, ...] = tuple(sorted({super_part_name(n) for n in RA
 
 #: Values a ``filter_shape`` may take: subtypes and categories (hypernyms).
 SHAPE_VALUES: tuple[str, ...] = SUBTYPES + CATEGORIES
-#: Values a ``partfilter_partname`` may take: raw part names and super-part names.
+#: Values a ``partfilter_partname`` may take: raw part names and super-part names. Every raw name stays a valid
+#: value (imported public programs use them); two raw names with the same words select the same parts.
 PARTNAME_VALUES: tuple[str, ...] = RAW_PART_NAMES + tuple(n for n in SUPER_PART_NAMES if n not in RAW_PART_NAMES)
+
+
+@cache
+def _raw_part_words() -> dict[str, str]:
+    """Raw part name -> its readable words (looked up for every part a filter visits)."""
+    return {name: readable_name(name) for name in RAW_PART_NAMES}
+
+
+@cache
+def _canonical_by_words() -> dict[str, str]:
+    """Readable words -> the first (sorted) raw name with those words."""
+    out: dict[str, str] = {}
+    for name in RAW_PART_NAMES:  # sorted, so the first name of each group wins
+        out.setdefault(readable_name(name), name)
+    return out
+
+
+def canonical_part_name(value: str) -> str:
+    """The spelling of a part-name value that programs we generate use: for a raw part name, the first (sorted)
+    raw name with the same words (``wheel_back_left`` -> ``back_left_wheel``); super-part names map to themselves.
+
+    The public verbalisation gives 17 pairs of raw names the same words, so a question's text cannot choose
+    between them; with one spelling per meaning, the program is a function of the text.
+    """
+    if value in SUPER_PART_NAMES and value not in RAW_PART_NAMES:
+        return value
+    if value not in RAW_PART_NAMES:
+        raise UnknownNameError("part name", value, PARTNAME_VALUES)
+    return _canonical_by_words()[readable_name(value)]
+
+
+#: The part-name values generated programs (and the question parser) use: canonical raw names and the super-part
+#: names that are not raw names, in :data:`PARTNAME_VALUES` order (85 = 68 + 17).
+CANONICAL_PARTNAME_VALUES: tuple[str, ...] = tuple(v for v in PARTNAME_VALUES if canonical_part_name(v) == v)
 
 #: Value vocabulary per value type, as used in programs.
 VALUE_VOCABULARY: MappingProxyType = MappingProxyType(
@@ -146,13 +181,18 @@ def shape_matches(subtype: str, value: str) -> bool:
 
 
 def partname_matches(raw: str, value: str) -> bool:
-    """``partfilter_partname`` semantics: the raw name itself or its super-part name matches.
+    """``partfilter_partname`` semantics: a part name means its words. ``value`` selects raw part ``raw`` if it
+    is ``raw``'s super-part name (``wheel`` selects ``wheel_back_left``) or a raw name that reads the same
+    (``back_left_wheel`` and ``wheel_back_left`` both read "back left wheel" and select both spellings).
 
-    The public code uses a substring test (``'wheel' in 'wheel_front'``); on this vocabulary it selects the same
-    parts as the super-part rule except for accidental substrings (``'light'`` would match ``head_light``), which
-    no template emits. We use the exact rule.
+    The public code uses a substring test (``'wheel' in 'wheel_front'``): it adds accidents (``'light'`` would
+    match ``head_light``) and tells apart raw names that questions verbalise identically, so the question text
+    would not determine the program. Matching by words makes both spellings of a name mean the same parts.
     """
-    return value == raw or value == super_part_name(raw)
+    if value == super_part_name(raw):
+        return True
+    words = _raw_part_words().get(value)
+    return words is not None and words == _raw_part_words().get(raw)
 
 
 def part_id(subtype: str, raw: str) -> int:
