@@ -5,7 +5,7 @@
 Per question (batch of one, after warm-up) it times
 - ``beam5``: what ``QuestionParser.parse`` does by default (constrained beam search, width 5, best program),
 - ``beam5 n=3``: the 3-best programs,
-- ``greedy``: constrained greedy decoding (no beam, no part-name respelling),
+- ``greedy``: constrained greedy decoding (no beam, no satisfiability check),
 - ``unconstrained``: arg-max over the whole vocabulary, stopping when the token arities close the program
   (the baseline: what a plain seq2seq decoder costs),
 and prints the median and 90th percentile, the ratio of medians to the baseline, and each decoder's exact match

@@ -1,9 +1,12 @@
-"""A small hand-made set of (question, program text) pairs, covering every question family's shape."""
+"""A small hand-made set of (question, program text) pairs, covering every question family's shape.
+
+Some part names are in a public raw spelling (``wheel_back_left``, ``mirror_left``); examples respell them
+canonically, as ``load_examples`` does."""
 
 from __future__ import annotations
 
 from po3d_ppl.language import parse_program
-from po3d_ppl.language.seq2seq.data import Example
+from po3d_ppl.language.seq2seq.data import Example, canonical_targets
 
 PAIRS: list[tuple[str, str, str]] = [
     ("parts", "What is the color of the wheel of the red car?",
@@ -58,4 +61,5 @@ PAIRS: list[tuple[str, str, str]] = [
 
 
 def pair_examples() -> list[Example]:
-    return [Example(q, parse_program(p), source, f"{source}:{i}") for i, (source, q, p) in enumerate(PAIRS)]
+    return [Example(q, canonical_targets(parse_program(p)), source, f"{source}:{i}")
+            for i, (source, q, p) in enumerate(PAIRS)]

@@ -148,16 +148,12 @@ def eval_parser_command(
     report = evaluate(parser.trained, examples, parser.registry, predict=predict)
     report.update({"data": str(data), "split": split, "beam": beam, "n": n,
                    "data_seed": _dataset_manifest(data).get("seed")})
-    table = Table(title=f"question parser on {data} [{split}]", caption="exact: best program = gold; same words: "
-                  "equal up to part-name spelling; ambiguous: questions whose gold program has a satisfiable "
-                  "respelling with the same words")
-    for col in ("file", "questions", "exact", "same words", f"in {n}-best", "ambiguous", "exact, unamb."):
+    table = Table(title=f"question parser on {data} [{split}]",
+                  caption=f"exact: best program = gold; in {n}-best: gold among the {n} best programs")
+    for col in ("file", "questions", "exact", f"in {n}-best"):
         table.add_column(col, justify="left" if col == "file" else "right")
     for name, row in [*report["per_file"].items(), ("all", report)]:
-        clear = row["exact_match_unambiguous"]
-        table.add_row(name, str(row["count"]), f"{row['exact_match']:.4f}", f"{row['readable_match']:.4f}",
-                      f"{row['in_n_best']:.4f}", str(row["spelling_ambiguous"]),
-                      "-" if clear is None else f"{clear:.4f}")
+        table.add_row(name, str(row["count"]), f"{row['exact_match']:.4f}", f"{row['in_n_best']:.4f}")
     console = Console()
     console.print(table)
     worst = sorted(report["per_family"].items(), key=lambda kv: kv[1]["exact_match"])[:3]
@@ -170,8 +166,7 @@ def eval_parser_command(
         from po3d_ppl.language.seq2seq.model_io import MODEL_NAME
         from po3d_ppl.model_store import models_dir, record_metrics
 
-        keys = ("exact_match", "readable_match", "in_n_best", "count", "spelling_ambiguous",
-                "exact_match_unambiguous")
+        keys = ("exact_match", "in_n_best", "count")
         summary = {k: report[k] for k in keys}
         summary["per_file"] = {name: {k: row[k] for k in keys} for name, row in report["per_file"].items()}
         summary.update(data_seed=report["data_seed"], split=split, beam=beam, n=n,

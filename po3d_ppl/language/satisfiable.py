@@ -2,14 +2,13 @@
 
 An abstract interpretation over the ontology: every object-valued node gets the set of subtypes its objects may
 have, every part-valued node the set of (subtype, raw part name) pairs its parts may be. ``filter_shape`` and
-``partfilter_partname`` narrow these sets, the part/object pivots map between them, and every operation this
-module does not know (user-registered ones included) is assumed to produce anything, so the analysis never
-rejects a program that some scene could satisfy.
+``partfilter_partname`` narrow these sets (through ``ontology.shape_matches`` and ``ontology.partname_matches``,
+the executor's own rules, so a part name selects both raw spellings that read the same), the part/object pivots
+map between them, and every operation this module does not know (user-registered ones included) is assumed to
+produce anything, so the analysis never rejects a program that some scene could satisfy.
 
-Why: the public verbalisation gives 17 pairs of raw part names the same words ("back left wheel" is
-``back_left_wheel`` on cars and ``wheel_back_left`` on buses and planes). When a question names the object's
-category, only one spelling can exist on it; the question parser uses this analysis to respell such impossible
-parses into the possible one.
+Why: a question can ask about something no scene has ("the wing of the car"); the question parser flags such
+parses (``ParsedProgram.satisfiable``) so callers can tell them from a parse that merely found nothing.
 """
 
 from __future__ import annotations
@@ -82,40 +81,3 @@ def unsatisfiable_node(program: Program, types: tuple[str, ...]) -> int | None:
             return index
         values.append(value)
     return None
-
-
-@cache
-def _same_words() -> dict[str, tuple[str, ...]]:
-    """Part-name values that read the same (``back_left_wheel`` -> ``('wheel_back_left',)``)."""
-    groups: dict[str, list[str]] = {}
-    for name in ontology.PARTNAME_VALUES:
-        groups.setdefault(ontology.readable_name(name), []).append(name)
-    return {n: tuple(o for o in g if o != n) for g in groups.values() for n in g}
-
-
-def _respellings(program: Program):
-    """Programs that differ from ``program`` only in part-name spellings with the same words (original first)."""
-    from dataclasses import replace
-    from itertools import product
-
-    sites = [(i, (node.value, *_same_words()[node.value])) for i, node in enumerate(program)
-             if node.function == "partfilter_partname" and _same_words().get(node.value)]
-    for choice in product(*(options for _, options in sites)):
-        if all(value == program[i].value for (i, _), value in zip(sites, choice)):
-            continue
-        nodes = list(program.nodes)
-        for (i, _), value in zip(sites, choice):
-            nodes[i] = replace(nodes[i], value=value)
-        yield Program(tuple(nodes))
-
-
-def spelling_ambiguous(program: Program, types: tuple[str, ...]) -> bool:
-    """Whether respelling part-name values into other raw names with the same words (so the same question
-    text) gives another satisfiable program: then the text alone cannot decide between them."""
-    return any(unsatisfiable_node(other, types) is None for other in _respellings(program))
-
-
-def respell_satisfiable(program: Program, types: tuple[str, ...]) -> Program | None:
-    """For an unsatisfiable program, the first respelling of its part names (same words) that is satisfiable:
-    "the left head light of the school bus" must mean ``head_light_left``, the bus spelling."""
-    return next((other for other in _respellings(program) if unsatisfiable_node(other, types) is None), None)

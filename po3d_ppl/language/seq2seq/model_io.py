@@ -12,13 +12,12 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 import torch
 from safetensors.torch import load_file, save_file
 
 from po3d_ppl.errors import InputError, ModelFileError
 from po3d_ppl.language.ast import Program
-from po3d_ppl.language.satisfiable import respell_satisfiable, unsatisfiable_node
+from po3d_ppl.language.satisfiable import unsatisfiable_node
 from po3d_ppl.language.seq2seq.constraints import TypeAutomaton
 from po3d_ppl.language.seq2seq.decode import beam_search
 from po3d_ppl.language.seq2seq.model import ParserConfig, Seq2SeqParser
@@ -128,13 +127,10 @@ class QuestionParser:
     def parse(self, question: str, n: int = 1, beam: int = 5) -> QuestionParse:
         """The ``n`` most probable programs for ``question`` (beam width ``max(beam, n)``).
 
-        Part names are written the same way for different raw names ("left head light" is ``left_head_light``
-        on cars, ``head_light_left`` on buses), so a decoded program that no scene can satisfy is respelled
-        into the satisfiable one with the same words when there is one (probabilities of decodes that end up
-        the same program add up). Otherwise it keeps its rank, flagged ``satisfiable=False``: it is what the
-        question says (e.g. "the front wheel of the car", a part cars do not have), and promoting a less
-        probable parse would answer another question. The beam search looks for ``n + 2`` programs to leave
-        room for merging.
+        A program that no scene can satisfy keeps its rank, flagged ``satisfiable=False``: it is what the
+        question says (e.g. "the front wheel of the car", a part cars do not have), and promoting a less probable
+        parse would answer another question. Part names come out in their canonical spelling (the target
+        vocabulary has no other), which selects every part that reads the same.
         """
         if not isinstance(question, str) or not tokenize(question):
             raise InputError("question", f"{question!r} has no words to parse")
@@ -142,21 +138,11 @@ class QuestionParser:
             raise InputError("n", f"must be at least 1, got {n}")
         ids, unknown = self.trained.words.encode(question)
         words = torch.tensor(ids, device=self.device)
-        hypotheses = beam_search(self.model, self.automaton, words, n=n + 2, beam=max(beam, n + 2),
+        hypotheses = beam_search(self.model, self.automaton, words, n=n, beam=max(beam, n),
                                  weights=self.step_weights)
-        merged: dict[tuple[str, ...], ParsedProgram] = {}
+        candidates = []
         for hypothesis in hypotheses:
             program = self.trained.targets.decode(hypothesis.ids, self.registry)
             types = check_program(program, self.registry).types
-            satisfiable = unsatisfiable_node(program, types) is None
-            if not satisfiable:
-                repaired = respell_satisfiable(program, types)
-                if repaired is not None:
-                    program, satisfiable = repaired, True
-            key = tuple(program_to_tokens(program))
-            log_prob = hypothesis.log_prob
-            if key in merged:  # two decodes that denote the same program: their probabilities add up
-                log_prob = float(np.logaddexp(merged[key].log_prob, log_prob))
-            merged[key] = ParsedProgram(program, log_prob, satisfiable)
-        candidates = sorted(merged.values(), key=lambda c: -c.log_prob)
-        return QuestionParse(question, tuple(tokenize(question)), tuple(unknown), tuple(candidates[:n]))
+            candidates.append(ParsedProgram(program, hypothesis.log_prob, unsatisfiable_node(program, types) is None))
+        return QuestionParse(question, tuple(tokenize(question)), tuple(unknown), tuple(candidates))

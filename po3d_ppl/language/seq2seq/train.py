@@ -16,16 +16,14 @@ import torch
 from torch import nn
 
 from po3d_ppl.errors import InputError
-from po3d_ppl.language.satisfiable import spelling_ambiguous
 from po3d_ppl.language.seq2seq.constraints import TypeAutomaton
 from po3d_ppl.language.seq2seq.data import Example
 from po3d_ppl.language.seq2seq.decode import greedy_batch
 from po3d_ppl.language.seq2seq.model import ParserConfig, Seq2SeqParser
 from po3d_ppl.language.seq2seq.vocab import TargetVocabulary, WordVocabulary
-from po3d_ppl.language.tokens import format_token, program_to_tokens, split_token
+from po3d_ppl.language.tokens import program_to_tokens
 from po3d_ppl.language.typecheck import check_program
 from po3d_ppl.reasoning.registry import OperationRegistry
-from po3d_ppl.world import ontology
 
 
 @dataclass(frozen=True)
@@ -183,27 +181,11 @@ def _automaton(trained: Trained, registry: OperationRegistry) -> TypeAutomaton:
     return TypeAutomaton(registry, trained.targets, trained.root_types, trained.max_len)
 
 
-def readable_tokens(tokens: Sequence[str]) -> list[str]:
-    """Prefix tokens with every part-name value replaced by its words (``wheel_back_left`` -> ``back left
-    wheel``). The public verbalisation gives 17 pairs of raw names the same words (``back_left_wheel`` on cars,
-    ``wheel_back_left`` on buses), so when a question does not name the object's category, text alone cannot
-    tell them apart; comparing readable tokens measures everything else."""
-    out = []
-    for token in tokens:
-        function, value = split_token(token)
-        if value is not None and value in ontology.PARTNAME_VALUES:
-            value = ontology.readable_name(value)
-        out.append(format_token(function, value))
-    return out
-
-
 def evaluate(trained: Trained, examples: Sequence[Example], registry: OperationRegistry, batch_size: int = 256,
              predict: Callable[[Sequence[Example]], list[list[list[str]]]] | None = None) -> dict:
     """Exact match of the best program (predicted prefix tokens == gold prefix tokens), overall, per question
-    file and per family; also the match up to part-name spelling (:func:`readable_tokens`), how many gold
-    programs have a satisfiable respelling with the same words (so the text cannot decide, see
-    :func:`~po3d_ppl.language.satisfiable.spelling_ambiguous`) and the exact match on the others, and, when
-    ``predict`` returns several candidates per question, how often the gold program is among them.
+    file and per family, and, when ``predict`` returns several candidates per question, how often the gold program
+    is among them.
 
     By default predictions are constrained greedy decodes; ``predict`` substitutes another decoder (it returns,
     per example, a list of candidate token lists, best first).
@@ -216,34 +198,26 @@ def evaluate(trained: Trained, examples: Sequence[Example], registry: OperationR
 
     was_training = trained.model.training
     trained.model.eval()
-    counts: dict[str, list[int]] = defaultdict(lambda: [0, 0, 0, 0, 0, 0])
+    counts: dict[str, list[int]] = defaultdict(lambda: [0, 0, 0])
     failures: list[dict] = []
     for start in range(0, len(examples), batch_size):
         batch = examples[start:start + batch_size]
         for example, candidates in zip(batch, predict(batch)):
             gold = program_to_tokens(example.program)
             exact = candidates[0] == gold
-            readable = readable_tokens(candidates[0]) == readable_tokens(gold)
             listed = gold in candidates
-            ambiguous = spelling_ambiguous(example.program, check_program(example.program, registry).types)
             for key in ("all", f"file:{example.source}", f"family:{example.source}/{example.family}"):
                 row = counts[key]
                 row[0] += exact
-                row[1] += readable
-                row[2] += listed
-                row[3] += 1
-                row[4] += ambiguous
-                row[5] += exact and not ambiguous
+                row[1] += listed
+                row[2] += 1
             if not exact:
                 failures.append({"question": example.question, "family": f"{example.source}/{example.family}",
                                  "predicted": " ".join(candidates[0]), "gold": " ".join(gold)})
     trained.model.train(was_training)
 
     def summary(row: list[int]) -> dict:
-        clear = row[3] - row[4]
-        return {"exact_match": row[0] / row[3], "readable_match": row[1] / row[3], "in_n_best": row[2] / row[3],
-                "count": row[3], "spelling_ambiguous": row[4],
-                "exact_match_unambiguous": row[5] / clear if clear else None}
+        return {"exact_match": row[0] / row[2], "in_n_best": row[1] / row[2], "count": row[2]}
 
     overall = summary(counts["all"]) if examples else {"exact_match": 0.0, "count": 0}
     return {

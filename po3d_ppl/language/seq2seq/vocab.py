@@ -7,6 +7,8 @@ and are reported to the caller.
 Program targets are the prefix token sequence of :mod:`po3d_ppl.language.tokens` with each value split off
 into a token of its own (``filter_color[red]`` -> ``filter_color``, ``red``): a value is then one embedding
 shared by every operation that takes it, and the decoder's constraint knows which value type may come next.
+Part names are targets in their canonical spelling only (:func:`po3d_ppl.language.seq2seq.data.canonical_targets`
+respells imported programs).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from dataclasses import dataclass
 from po3d_ppl.language.ast import Program
 from po3d_ppl.language.tokens import format_token, program_from_tokens, program_to_tokens, split_token
 from po3d_ppl.reasoning.registry import OperationRegistry, value_vocabulary
+from po3d_ppl.world import ontology
 
 PAD, UNK = "<pad>", "<unk>"
 _WORD = re.compile(r"[a-z0-9]+")
@@ -77,10 +80,14 @@ class TargetVocabulary:
 
     @classmethod
     def from_registry(cls, registry: OperationRegistry) -> TargetVocabulary:
-        """Every registered operation and every literal of every value type an operation takes."""
+        """Every registered operation and every literal of every value type an operation takes; part names only
+        in their canonical spelling (``ontology.CANONICAL_PARTNAME_VALUES``): two raw names that read the same
+        mean the same parts, so the parser has one token per wording and its output is a function of the text."""
         values: set[str] = set()
         for op in registry:
-            if op.value is not None:
+            if op.value == "Partname":
+                values.update(ontology.CANONICAL_PARTNAME_VALUES)
+            elif op.value is not None:
                 values.update(value_vocabulary(op.value))
         return cls(tuple(registry.names()), tuple(sorted(values)))
 
