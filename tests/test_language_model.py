@@ -16,9 +16,13 @@ CASES = [
     ("What material is the left head light of the school bus?",
      "scene() | filter_shape[school] | unique | object2part | partfilter_partname[head_light_left] | unique"
      " | partquery_material"),
+    # one spelling per wording: "left head light" is head_light_left on buses and sedans alike
     ("What material is the left head light of the sedan?",
-     "scene() | filter_shape[sedan] | unique | object2part | partfilter_partname[left_head_light] | unique"
+     "scene() | filter_shape[sedan] | unique | object2part | partfilter_partname[head_light_left] | unique"
      " | partquery_material"),
+    ("What color is the back left wheel of the cyan object?",
+     "scene() | filter_color[cyan] | unique | object2part | partfilter_partname[back_left_wheel] | unique"
+     " | partquery_color"),
     ("Which direction is the blue airliner facing?",
      "scene() | filter_color[blue] | filter_shape[airliner] | unique | query_pose"),
     ("What is the shape of the thing that occludes the small gray object?",
