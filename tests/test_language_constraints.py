@@ -11,9 +11,11 @@ from language_strategies import programs
 
 from po3d_ppl.language import check_program, program_to_tokens
 from po3d_ppl.language.seq2seq.constraints import TypeAutomaton
+from po3d_ppl.language.seq2seq.data import canonical_targets
 from po3d_ppl.language.seq2seq.vocab import TargetVocabulary
 from po3d_ppl.language.typecheck import default_registry
 from po3d_ppl.reasoning.registry import ALL_TYPES, OperationRegistry, register_operation
+from po3d_ppl.world import ontology
 
 ROOTS = ("Bool", "Integer", "Color", "Material", "Size", "Shape", "Partname", "Direction")
 
@@ -46,7 +48,9 @@ def test_random_constrained_walks_are_well_typed_and_fit_the_budget(seed, max_le
 @settings(max_examples=100, deadline=None)
 @given(programs(share=False))
 def test_every_well_typed_program_is_accepted_token_by_token(program):
+    """Every well-typed program, with its part names in the canonical spelling (the parser's targets)."""
     automaton, targets = _automaton(200, roots=ALL_TYPES)
+    program = canonical_targets(program)
     state = automaton.initial()
     ids = targets.encode(program)
     for token in ids:
@@ -65,6 +69,11 @@ def test_values_follow_their_operation_and_match_its_value_type():
     state = automaton.advance(state, targets.op_id("filter_pose"))
     allowed = {targets.tokens[i] for i in np.flatnonzero(automaton.allowed(state))}
     assert allowed == {"front_pose", "back_pose", "left_pose", "right_pose"}
+    state = automaton.advance(automaton.initial(), targets.op_id("partquery_color"))
+    state = automaton.advance(state, targets.op_id("unique"))
+    state = automaton.advance(state, targets.op_id("partfilter_partname"))
+    allowed = {targets.tokens[i] for i in np.flatnonzero(automaton.allowed(state))}
+    assert allowed == set(ontology.CANONICAL_PARTNAME_VALUES)  # one spelling per wording
 
 
 def test_slot_types_exclude_operations_of_the_wrong_type():
