@@ -45,7 +45,7 @@ def scene():
 def test_every_operation_has_a_reference_semantics():
     assert missing_references() == []
     op = REGISTRY.resolve("filter_occluder", ("ObjectSet",))
-    assert op is not None and op.world_fn is None and op.reference_fn is not None
+    assert op is not None and op.world_fn is not None and op.reference_fn is not None
 
 
 def test_scene_filters_and_hypernyms(scene):

@@ -175,3 +175,16 @@ def test_typed_programs_from_every_front_end_compile_alike(scene):
     evidence = SceneEvidence.from_scene(scene)
     answers = {infer(p, evidence).top for p in (text, typed, json_program, compile_program(text))}
     assert answers == {"blue"}
+
+
+def test_filter_occluder_is_answered_by_sampling_and_matches_the_reference(scene):
+    program = "count(filter_occluder(filter_color[red](scene())))"
+    reasoner = SceneReasoner(SceneEvidence.from_scene(scene))
+    with pytest.raises(Exception, match="filter_occluder asks whether"):
+        reasoner.infer(program, "exact")
+    dist = reasoner.infer(program, "auto", num_samples=256)
+    assert dist.method == "sampling" and "filter_occluder" in dist.info["fallback"]
+    reference = execute(scene, compile_program(program).typed).answer
+    assert dist.top == reference and dist.probability(reference) == 1.0
+    assert reasoner.infer(program, "dense").probs == {reference: 1.0}
+    assert reasoner.infer(program, "soft").top == reference

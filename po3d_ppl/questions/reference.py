@@ -16,7 +16,7 @@ import operator
 
 import po3d_ppl.reasoning.operations  # noqa: F401  (registers the operations we attach semantics to)
 from po3d_ppl.questions.context import Part, SceneContext
-from po3d_ppl.reasoning.registry import REGISTRY, Operation, Signature, register_reference
+from po3d_ppl.reasoning.registry import REGISTRY, register_reference
 from po3d_ppl.world import ontology
 
 
@@ -271,21 +271,10 @@ def relate_part_occluded(ctx: SceneContext, part: Part) -> frozenset[int]:
     return frozenset(ctx.part_occluders.get(part, ()))
 
 
+@register_reference("filter_occluder", inputs=("ObjectSet",))
 def filter_occluder(ctx: SceneContext, objects: frozenset[int]) -> frozenset[int]:
     """Objects of the set that occlude some object or part (the public code ignores its input)."""
     return frozenset(j for j in objects if ctx.occludees_of[j] or ctx.parts_occluded_by[j])
-
-
-if "filter_occluder" not in REGISTRY:
-    REGISTRY.register(Operation(
-        name="filter_occluder",
-        signature=Signature(("ObjectSet",), "ObjectSet"),
-        world_fn=None,
-        doc="Objects of the set that occlude some object or part (reference only; no template emits it).",
-        family="occlusion",
-        reference_fn=filter_occluder,
-        module=__name__,
-    ))
 
 
 def missing_references() -> list[str]:

@@ -136,6 +136,10 @@ class LatentWorld(ABC):
     def occluders_of_part(self, part) -> torch.Tensor:
         """bool [..., N, 1]: objects that occlude the pivot part ``part``."""
 
+    @abstractmethod
+    def occluding_anything(self) -> torch.Tensor:
+        """bool [..., N, 1]: objects that occlude some (existing) object or part."""
+
     # ---- pivots ------------------------------------------------------------------------------------------------
     @abstractmethod
     def pivot_attribute(self, obj, name: str) -> torch.Tensor:

@@ -173,6 +173,9 @@ def _soft_rules(m: _Marginals) -> dict[tuple[str, tuple[str, ...]], Callable]:
         ("partfilter_occludee", ("PartSet",)): lambda t: t * m.part_occluded,
         ("partquery_occlusion", ("Part",)):
             lambda y: torch.stack([(y * (1 - m.part_occluded)).sum(), (y * m.part_occluded).sum()]),
+        ("filter_occluder", ("ObjectSet",)): lambda s: s * (1 - torch.prod(1 - m.exists.unsqueeze(-1) * m.occludes, 0)
+                                                            * torch.prod(1 - (m.part_valid.unsqueeze(-1) * m.part_occludes
+                                                                              * not_self.unsqueeze(1)).flatten(0, 1), 0)),
         ("relate_occluded", ("Object",)): lambda x: m.exists * (x @ m.occludes),
         ("relate_occluding", ("Object",)): lambda x: m.exists * (m.occludes @ x),
         ("relate_occluding_part", ("Object",)): lambda x: m.part_valid * (m.part_occludes @ x),

@@ -111,6 +111,12 @@ class ConcreteWorld(LatentWorld):
         row = _take(_take(occ, part.owner, dim=-3), part.slot, dim=-2)  # [*B, N_j]
         return row.unsqueeze(-1) & self._not_self(part.owner)
 
+    def occluding_anything(self):
+        other = self.index != self.index.T  # [N_i, N_j]: an object never occludes itself or its own parts
+        objects = self.latent("occludes").bool() & self.exists & other  # [*B, N_i, N_j]
+        parts = self.latent("part_occludes").bool() & self.part_valid.unsqueeze(-1) & other.unsqueeze(-2)
+        return (objects.any(-2) | parts.flatten(-3, -2).any(-2)).unsqueeze(-1)  # parts: [*B, N, P, N_j]
+
     # ---- pivots ---------------------------------------------------------------------------------------------------
     def pivot_attribute(self, obj, name):
         if name == "index":

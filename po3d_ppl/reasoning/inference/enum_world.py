@@ -272,6 +272,11 @@ class EnumWorld(LatentWorld):
         value = self._pair_site(("part_occludes", "row", _PivotKey(self, part.owner, part.slot)), probs, "local")
         return Sop.lift(value) & (self.index != j)
 
+    def occluding_anything(self):
+        raise ExactUnsupported(
+            "filter_occluder asks whether an object occludes *any* object or part: the answer depends on the other "
+            "objects' latents, which the exact engine keeps independent; use method='sampling'")
+
     # ---- pivots ---------------------------------------------------------------------------------------------------
     def _copy(self, owner: Dim, site: str) -> tuple[Dim, torch.Tensor]:
         """A global copy of object ``owner``'s latent ``site``, tied to it: its dim and its values."""

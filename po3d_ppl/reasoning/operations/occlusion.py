@@ -23,6 +23,12 @@ def partquery_occlusion(world, part):
     return world.at_part(part).occluded
 
 
+@register_operation("filter_occluder", inputs=["ObjectSet"], output="ObjectSet")
+def filter_occluder(world, objects):
+    """Objects that occlude some object or part (no template emits it; the exact engine defers to sampling)."""
+    return objects & world.occluding_anything()
+
+
 @register_operation("relate_occluded", inputs=["Object"], output="ObjectSet")
 def relate_occluded(world, obj):
     """The objects that occlude the object."""

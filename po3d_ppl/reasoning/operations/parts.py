@@ -67,7 +67,8 @@ def partfilter_size(world, parts, value):
 
 @register_operation("partfilter_partname", inputs=["PartSet"], value="Partname", output="PartSet")
 def partfilter_partname(world, parts, value):
-    """Parts with the given raw name, or whose coarse name it is (``wheel`` matches ``wheel_back_left``)."""
+    """Parts named by the value's words (``back_left_wheel`` matches ``wheel_back_left`` too), or whose coarse name
+    it is (``wheel`` matches every wheel)."""
     table = values.partname_match_table()[ontology.PARTNAME_VALUES.index(value)]
     return parts & table[world.part_name]
 
