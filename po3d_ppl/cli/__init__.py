@@ -32,13 +32,7 @@ app.add_typer(eval_app, name="eval")
 _MODULES = ("demo", "world", "dataset", "execute", "language", "answer")
 
 for _name in _MODULES:
-    try:
-        _module = importlib.import_module(f"po3d_ppl.cli.{_name}")
-    except ModuleNotFoundError as exc:  # a stage that has not landed yet
-        if exc.name != f"po3d_ppl.cli.{_name}":
-            raise
-        continue
-    _module.register(app, train_app, eval_app)
+    importlib.import_module(f"po3d_ppl.cli.{_name}").register(app, train_app, eval_app)
 
 
 def main() -> None:
