@@ -69,7 +69,7 @@ def train_parser_command(
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
     from po3d_ppl.errors import InputError
-    from po3d_ppl.language.seq2seq.data import load_examples
+    from po3d_ppl.language.seq2seq.data import open_dataset, split_examples
     from po3d_ppl.language.seq2seq.model_io import MODEL_NAME, save_parser
     from po3d_ppl.language.seq2seq.train import TrainConfig, train_parser
     from po3d_ppl.language.typecheck import default_registry
@@ -80,11 +80,13 @@ def train_parser_command(
     torch.set_num_threads(threads)
     console = Console()
     registry = default_registry()
-    train, validation = [], []
+    train, validation, data_manifests = [], [], []
     for directory in data:
-        train += load_examples(directory, "train")
+        dataset = open_dataset(directory)
+        data_manifests.append(dataset.manifest)
+        train += split_examples(dataset, "train")
         try:
-            validation += load_examples(directory, "val")
+            validation += split_examples(dataset, "val")
         except InputError:  # a dataset without val questions
             pass
     config = TrainConfig(seed=seed, epochs=epochs, batch_size=batch_size, lr=lr, hidden=hidden, embed=embed,
@@ -103,7 +105,6 @@ def train_parser_command(
     seconds = time.perf_counter() - start
     directory = Path(out) if out is not None else models_dir()
     files = save_parser(trained, directory)
-    data_manifests = [_dataset_manifest(d) for d in data]
     history = trained.history
     metrics = {"train_questions": len(train), "val_questions": len(validation), "train_seconds": round(seconds, 1),
                "history": history}
@@ -135,19 +136,20 @@ def eval_parser_command(
     from rich.table import Table
 
     from po3d_ppl.language import QuestionParser
-    from po3d_ppl.language.seq2seq.data import load_examples
+    from po3d_ppl.language.seq2seq.data import open_dataset, split_examples
     from po3d_ppl.language.seq2seq.train import evaluate
 
     torch.set_num_threads(threads)
     parser = QuestionParser.load(model_dir)
-    examples = load_examples(data, split)
+    dataset = open_dataset(data)
+    examples = split_examples(dataset, split)
 
     def predict(batch):
         return [[c.tokens for c in parser.parse(e.question, n=n, beam=beam).candidates] for e in batch]
 
     report = evaluate(parser.trained, examples, parser.registry, predict=predict)
     report.update({"data": str(data), "split": split, "beam": beam, "n": n,
-                   "data_seed": _dataset_manifest(data).get("seed")})
+                   "data_seed": dataset.manifest.get("seed")})
     table = Table(title=f"question parser on {data} [{split}]",
                   caption=f"exact: best program = gold; in {n}-best: gold among the {n} best programs")
     for col in ("file", "questions", "exact", f"in {n}-best"):
@@ -189,13 +191,6 @@ def _train_command(data: list[Path], config, out: Path | None) -> str:
     if out is not None:
         words += ["--out", str(out)]
     return shlex.join(words)
-
-
-def _dataset_manifest(data: Path) -> dict:
-    try:
-        return json.loads((Path(data) / "manifest.json").read_text())
-    except (OSError, json.JSONDecodeError):
-        return {}
 
 
 def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:
