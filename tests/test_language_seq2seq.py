@@ -12,7 +12,7 @@ from language_pairs import pair_examples
 
 from po3d_ppl.errors import InputError, ModelFileError
 from po3d_ppl.language import QuestionParser, check_program, parse_program, program_to_json
-from po3d_ppl.language.seq2seq.data import canonical_targets, examples_from_records
+from po3d_ppl.language.seq2seq.data import Example, canonical_targets, examples_from_records
 from po3d_ppl.language.seq2seq.decode import greedy_batch
 from po3d_ppl.language.seq2seq.model_io import MODEL_NAME, save_parser
 from po3d_ppl.language.seq2seq.train import TrainConfig, evaluate, train_parser
@@ -152,3 +152,12 @@ def test_manifest_entries_of_other_models_are_kept(tmp_path):
     assert manifest["two"]["data_seed"] == 2
     with pytest.raises(ModelFileError, match="no entry"):
         model_files("three", tmp_path)
+
+
+def test_a_target_token_outside_the_vocabulary_is_a_typed_error():
+    """Targets use canonical part names only; an example that was not respelled names its question."""
+    program = parse_program("scene() | filter_shape[bus] | unique | object2part"
+                            " | partfilter_partname[wheel_back_left] | unique | partquery_color")
+    example = Example("What color is the back left wheel of the bus?", program, "parts", "parts:0")
+    with pytest.raises(InputError, match="wheel_back_left.*target vocabulary"):
+        train_parser([example], TrainConfig(max_steps=1), default_registry())

@@ -63,27 +63,42 @@ class Trained:
     history: list[dict] = field(default_factory=list)
 
 
-def encode_examples(examples: Sequence[Example], words: WordVocabulary, targets: TargetVocabulary,
-                    automaton: TypeAutomaton) -> Encoded:
+def encode_questions(examples: Sequence[Example], words: WordVocabulary) -> tuple[torch.Tensor, torch.Tensor]:
+    """Padded word ids ``[N, T]`` of the questions and their lengths ``[N]`` (a question with no words is one
+    ``<unk>``)."""
     word_ids = [words.encode(e.question)[0] or [1] for e in examples]
-    target_ids, mask_ids = [], []
+    padded = torch.zeros(len(word_ids), max(map(len, word_ids)), dtype=torch.long)
+    for i, ids in enumerate(word_ids):
+        padded[i, :len(ids)] = torch.tensor(ids)
+    return padded, torch.tensor([len(ids) for ids in word_ids])
+
+
+def encode_targets(examples: Sequence[Example], targets: TargetVocabulary) -> list[list[int]]:
+    """Target ids of each example's program, or a typed error naming the question with an unknown token."""
+    out = []
     for e in examples:
         try:
-            ids = targets.encode(e.program)
+            out.append(targets.encode(e.program))
         except KeyError as exc:
             raise InputError("program", f"{e.source} question {e.question!r}: token {exc} is not in the parser's "
                                         "target vocabulary") from None
+    return out
+
+
+def encode_examples(examples: Sequence[Example], words: WordVocabulary, target_ids: Sequence[Sequence[int]],
+                    automaton: TypeAutomaton) -> Encoded:
+    """The training tensors of ``examples`` whose programs encode to ``target_ids`` (:func:`encode_targets`)."""
+    mask_ids = []
+    for ids in target_ids:
         state, keys = automaton.initial(), []
         for token in ids:
             keys.append(automaton.mask_key_id(state))
             state = automaton.advance(state, token)
-        target_ids.append(ids)
         mask_ids.append(keys)
-    n, t, length = len(examples), max(map(len, word_ids)), max(map(len, target_ids))
-    out = Encoded(torch.zeros(n, t, dtype=torch.long), torch.tensor([len(w) for w in word_ids]),
-                  torch.full((n, length), -100, dtype=torch.long), torch.zeros(n, length, dtype=torch.long))
-    for i, (w, ids, keys) in enumerate(zip(word_ids, target_ids, mask_ids)):
-        out.words[i, :len(w)] = torch.tensor(w)
+    n, length = len(examples), max(map(len, target_ids))
+    out = Encoded(*encode_questions(examples, words), torch.full((n, length), -100, dtype=torch.long),
+                  torch.zeros(n, length, dtype=torch.long))
+    for i, (ids, keys) in enumerate(zip(target_ids, mask_ids)):
         out.targets[i, :len(ids)] = torch.tensor(ids)
         out.mask_ids[i, :len(keys)] = torch.tensor(keys)
     return out
@@ -103,14 +118,12 @@ def train_parser(train: Sequence[Example], config: TrainConfig, registry: Operat
     best epoch's weights are kept. ``progress(step, total_steps, info)`` is called after every step."""
     if not train:
         raise InputError("--data", "no training examples")
-    for e in train:
-        check_program(e.program, registry)
+    root_types = tuple(sorted({check_program(e.program, registry).type for e in train}))
     words = WordVocabulary.build(e.question for e in train)
     targets = TargetVocabulary.from_registry(registry)
-    root_types = tuple(sorted({check_program(e.program, registry).type for e in train}))
-    longest = max(len(targets.encode(e.program)) for e in train)
-    automaton = TypeAutomaton(registry, targets, root_types, max_len=2 * longest + 8)
-    data = encode_examples(train, words, targets, automaton)
+    target_ids = encode_targets(train, targets)
+    automaton = TypeAutomaton(registry, targets, root_types, max_len=2 * max(map(len, target_ids)) + 8)
+    data = encode_examples(train, words, target_ids, automaton)
     masks = torch.from_numpy(automaton.mask_table()).to(device)
 
     model_config = ParserConfig(len(words), len(targets), config.embed, config.hidden, config.dropout)
@@ -177,10 +190,6 @@ def train_parser(train: Sequence[Example], config: TrainConfig, registry: Operat
     return trained
 
 
-def _automaton(trained: Trained, registry: OperationRegistry) -> TypeAutomaton:
-    return TypeAutomaton(registry, trained.targets, trained.root_types, trained.max_len)
-
-
 def evaluate(trained: Trained, examples: Sequence[Example], registry: OperationRegistry, batch_size: int = 256,
              predict: Callable[[Sequence[Example]], list[list[list[str]]]] | None = None) -> dict:
     """Exact match of the best program (predicted prefix tokens == gold prefix tokens), overall, per question
@@ -191,7 +200,7 @@ def evaluate(trained: Trained, examples: Sequence[Example], registry: OperationR
     per example, a list of candidate token lists, best first).
     """
     if predict is None:
-        automaton = _automaton(trained, registry)
+        automaton = TypeAutomaton(registry, trained.targets, trained.root_types, trained.max_len)
 
         def predict(batch: Sequence[Example]) -> list[list[list[str]]]:
             return [[trained.targets.decode_tokens(ids)] for ids in _greedy(trained, automaton, batch)]
@@ -228,12 +237,7 @@ def evaluate(trained: Trained, examples: Sequence[Example], registry: OperationR
     }
 
 
-def _greedy(trained: Trained, automaton: TypeAutomaton | None, batch: Sequence[Example],
-            arity: dict[int, int] | None = None) -> list[list[int]]:
+def _greedy(trained: Trained, automaton: TypeAutomaton, batch: Sequence[Example]) -> list[list[int]]:
     device = next(trained.model.parameters()).device
-    encoded = [trained.words.encode(e.question)[0] or [1] for e in batch]
-    words = torch.zeros(len(batch), max(map(len, encoded)), dtype=torch.long)
-    for i, ids in enumerate(encoded):
-        words[i, :len(ids)] = torch.tensor(ids)
-    lengths = torch.tensor([len(ids) for ids in encoded])
-    return greedy_batch(trained.model, automaton, words.to(device), lengths, arity, trained.max_len)
+    words, lengths = encode_questions(batch, trained.words)
+    return greedy_batch(trained.model, automaton, words.to(device), lengths)
