@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -96,6 +98,15 @@ def test_question_sets_map_to_the_released_files():
     obj = sets["obj_occlusion"].families
     assert obj == tuple([("occlusion.json", i) for i in range(2, 6)] + [("occlusion_by.json", i) for i in range(1, 9)])
     assert "height_depth" not in question_sets()
+
+
+def test_templates_load_whatever_is_imported_first():
+    """Template checking needs the built-in operations registered, not just the registry module imported."""
+    code = ("from po3d_ppl.questions.question_sets import question_sets; "
+            "print(sum(len(s.families) for s in question_sets(height_depth=True).values()))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
+    assert out.returncode == 0, out.stderr
+    assert int(out.stdout) == sum(len(s.families) for s in question_sets(height_depth=True).values())
 
 
 def test_relation_params_are_restricted():

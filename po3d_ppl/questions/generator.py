@@ -33,12 +33,12 @@ import numpy as np
 
 from po3d_ppl.questions.context import SceneContext
 from po3d_ppl.questions.filter_index import FilterIndex, Key
-from po3d_ppl.questions.program import REGISTRY, to_public_output
+from po3d_ppl.questions.program import to_public_output
 from po3d_ppl.questions.reference import InvalidStep
 from po3d_ppl.questions.template_format import (FILTER_KINDS, OBJECT_SLOTS, PART_SLOTS, Template,
                                                 load_template_file)
 from po3d_ppl.questions.verbalise import fill_text, verbalise_answer
-from po3d_ppl.reasoning.registry import Operation
+from po3d_ppl.reasoning.registry import REGISTRY, Operation
 from po3d_ppl.world import ontology
 from po3d_ppl.world.scene import Scene
 

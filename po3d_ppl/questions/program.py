@@ -8,7 +8,6 @@ encoding of intermediate results.
 from __future__ import annotations
 
 from po3d_ppl.language import Program, TypedProgram, check_program, program_from_json
-from po3d_ppl.reasoning.registry import REGISTRY  # noqa: F401  (re-exported for the template and generator modules)
 
 
 def checked_program(program: object) -> TypedProgram:

@@ -19,7 +19,7 @@ from functools import cache
 from importlib import resources
 
 from po3d_ppl.errors import InputError
-from po3d_ppl.questions.program import REGISTRY
+from po3d_ppl.language.typecheck import default_registry
 from po3d_ppl.reasoning.registry import value_vocabulary
 
 #: Template-only node types, by what they consume and produce: (input type, emitted aggregation or None).
@@ -100,9 +100,10 @@ def _node_output(where: str, node: dict, input_types: list[str], params: dict[st
             return set_type
         out = _AGGREGATE_OUTPUT[aggregate]
         return out[set_type] if isinstance(out, dict) else out
-    if kind not in REGISTRY:
+    registry = default_registry()  # the built-in operations, whichever module was imported first
+    if kind not in registry:
         raise TemplateError(where, f"unknown node type {kind!r}")
-    op = REGISTRY.resolve(kind, tuple(input_types))
+    op = registry.resolve(kind, tuple(input_types))
     if op is None:
         raise TemplateError(where, f"{kind} does not accept inputs {input_types}")
     if len(side) != (1 if op.value else 0) or (op.value and params[side[0]] != op.value):
