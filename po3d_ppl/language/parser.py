@@ -49,10 +49,11 @@ def _describe(terminal: str) -> str:
     return repr(pattern.value) if pattern.type == "str" else terminal
 
 
-def _span(meta) -> Span | None:
-    if getattr(meta, "empty", True):
+def _span(where) -> Span | None:
+    """The span of a lark ``Meta`` (None when it covers nothing) or ``Token``."""
+    if getattr(where, "empty", False):
         return None
-    return Span(meta.line, meta.column, meta.end_line, meta.end_column, meta.start_pos, meta.end_pos)
+    return Span(where.line, where.column, where.end_line, where.end_column, where.start_pos, where.end_pos)
 
 
 class _ProgramBuilder(Transformer):
@@ -67,9 +68,7 @@ class _ProgramBuilder(Transformer):
     def _add(self, name_token, value: str | None, inputs: list[int], span: Span | None) -> int:
         name = str(name_token)
         if self.registry is not None and name not in self.registry:
-            token_span = Span(name_token.line, name_token.column, name_token.end_line, name_token.end_column,
-                              name_token.start_pos, name_token.end_pos)
-            raise UnknownProgramNameError("operation", name, self.registry.names(), token_span, self.source,
+            raise UnknownProgramNameError("operation", name, self.registry.names(), _span(name_token), self.source,
                                           len(self.nodes))
         self.nodes.append(Node(name, tuple(inputs), value, span))
         return len(self.nodes) - 1
@@ -116,17 +115,15 @@ class _ProgramBuilder(Transformer):
         try:
             return self.bindings[str(token)]
         except KeyError:
-            span = Span(token.line, token.column, token.end_line, token.end_column, token.start_pos, token.end_pos)
             hint = "bindings must be defined before use" if self.bindings else (
                 "define it with `name = expression` first, or call an operation with parentheses")
-            raise UnknownProgramNameError("binding", str(token), self.bindings, span, self.source, hint=hint) \
-                from None
+            raise UnknownProgramNameError("binding", str(token), self.bindings, _span(token), self.source,
+                                          hint=hint) from None
 
     def binding(self, children) -> None:
         token, index = children
         if str(token) in self.bindings:
-            span = Span(token.line, token.column, token.end_line, token.end_column, token.start_pos, token.end_pos)
-            raise ProgramStructureError(f"{token} is already bound; choose another name", span, self.source)
+            raise ProgramStructureError(f"{token} is already bound; choose another name", _span(token), self.source)
         self.bindings[str(token)] = index
 
     def start(self, children) -> int:
