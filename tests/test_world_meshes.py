@@ -56,7 +56,7 @@ def test_canonical_frame_and_size(meshes, subtype):
     assert (lo[0] + hi[0]) / 2 == pytest.approx(0.0, abs=1e-9)
     assert (lo[1] + hi[1]) / 2 == pytest.approx(0.0, abs=1e-9)
     np.testing.assert_allclose(hi - lo, canonical_extents(subtype), rtol=1e-6)
-    box = ontology._PROPERTIES["info_box"][subtype]
+    box = ontology.INFO_BOX[subtype]
     length, width = (box[0], box[1]) if ontology.CATEGORY_OF[subtype] == "bicycle" else (box[1], box[0])
     np.testing.assert_allclose(hi - lo, [length, width, box[2]], rtol=0.15)
     # the builder's design already had the public proportions: normalising distorted no axis by more than 15%

@@ -2,7 +2,7 @@
 
 Everything here is derived from the two files of the public release that ship in ``world/data``:
 ``part_dict.json`` (raw part names per subtype; the *order* of each list defines part ids, spec §1.4) and
-``properties.json`` (colour RGB, sizes, hierarchy). Every other module imports its names from here, so the
+``properties.json`` (colour RGB, sizes, hierarchy, model boxes). Every other module imports its names from here, so the
 world, the question engine, the grammar and the reasoning engine cannot drift apart.
 
 Conventions:
@@ -66,6 +66,9 @@ COLOR_RGB: MappingProxyType = MappingProxyType({c: tuple(v) for c, v in _PROPERT
 MATERIALS: tuple[str, ...] = tuple(_PROPERTIES["materials"])  # ("rubber", "metal")
 SIZES: tuple[str, ...] = tuple(_PROPERTIES["sizes"])  # ("large", "small")
 SIZE_SCALE: MappingProxyType = MappingProxyType(dict(_PROPERTIES["sizes"]))
+#: subtype -> the public model's bounding-box size ``info_box`` as listed (width, length, height; bicycles:
+#: length, width, height). ``meshes.canonical_extents`` turns it into our mesh frame.
+INFO_BOX: MappingProxyType = MappingProxyType({s: tuple(_PROPERTIES["info_box"][s]) for s in SUBTYPES})
 
 #: The four facing directions of an object relative to the camera (spec §1.7).
 POSES: tuple[str, ...] = ("front", "back", "left", "right")

@@ -8,10 +8,8 @@ and normalises the result to the canonical frame and the public ``info_box`` siz
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
-from functools import cache, cached_property
-from importlib import resources
+from functools import cached_property
 
 import numpy as np
 import trimesh
@@ -25,18 +23,13 @@ FINISHES: tuple[str, ...] = ("paint", "glass", "rubber", "chrome", "lamp")
 UNLABELLED = -1
 
 
-@cache
-def _info_box() -> dict[str, list[float]]:
-    return json.loads(resources.files("po3d_ppl.world.data").joinpath("properties.json").read_text())["info_box"]
-
-
 def canonical_extents(subtype: str) -> np.ndarray:
-    """Target bounding-box size (x = length, y = width, z = height) from ``properties.json`` ``info_box``.
+    """Target bounding-box size (x = length, y = width, z = height) from the public ``info_box``.
 
     The public boxes list (width, length, height) for every category except bicycles, whose models were stored
     with their length first (the same reason their pose offset differs by 90 degrees, spec §1.7).
     """
-    box = _info_box()[subtype]
+    box = ontology.INFO_BOX[subtype]
     if ontology.CATEGORY_OF[subtype] == "bicycle":
         return np.array([box[0], box[1], box[2]], dtype=np.float64)
     return np.array([box[1], box[0], box[2]], dtype=np.float64)
