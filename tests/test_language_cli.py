@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 
 import pytest
-import torch
 from language_pairs import PAIRS
 from typer.testing import CliRunner
 
@@ -13,12 +12,7 @@ from po3d_ppl.cli import app
 from po3d_ppl.language import parse_program, program_to_json
 
 
-@pytest.fixture(scope="module", autouse=True)
-def one_thread():
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("torch_one_thread")
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ from po3d_ppl.language.seq2seq.constraints import TypeAutomaton
 from po3d_ppl.language.seq2seq.data import canonical_targets
 from po3d_ppl.language.seq2seq.vocab import TargetVocabulary
 from po3d_ppl.language.typecheck import default_registry
-from po3d_ppl.reasoning.registry import ALL_TYPES, OperationRegistry, register_operation
+from po3d_ppl.reasoning.registry import ALL_TYPES, register_operation
 from po3d_ppl.world import ontology
 
 ROOTS = ("Bool", "Integer", "Color", "Material", "Size", "Shape", "Partname", "Direction")
@@ -102,10 +102,8 @@ def test_tight_budget_forces_the_cheapest_completion():
         automaton.advance(automaton.initial(), targets.op_id("scene"))
 
 
-def test_user_operation_is_decodable():
-    registry = OperationRegistry()
-    for op in default_registry():
-        registry.register(op)
+def test_user_operation_is_decodable(builtin_registry_copy):
+    registry = builtin_registry_copy
 
     @register_operation("relate_above", inputs=["Object"], output="ObjectSet", registry=registry)
     def relate_above(world, obj):

@@ -4,7 +4,6 @@ written in the dataset's style, including wordings it was not trained on verbati
 from __future__ import annotations
 
 import pytest
-import torch
 
 from po3d_ppl.language import QuestionParser, check_program, parse_program, program_to_tokens
 
@@ -31,11 +30,8 @@ CASES = [
 
 
 @pytest.fixture(scope="module")
-def parser():
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield QuestionParser.load()
-    torch.set_num_threads(before)
+def parser(torch_one_thread):
+    return QuestionParser.load()
 
 
 @pytest.mark.parametrize(("question", "text"), CASES)

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 from po3d_ppl.language import check_program, parse_program
 from po3d_ppl.language.satisfiable import unsatisfiable_node
-from po3d_ppl.language.typecheck import default_registry
-from po3d_ppl.reasoning.registry import OperationRegistry, register_operation
+from po3d_ppl.reasoning.registry import register_operation
 
 
 def _analyse(text: str, registry=None):
@@ -49,10 +48,8 @@ def test_part_to_object_round_trip_keeps_the_subtypes():
     assert unsatisfiable_node(ok, types) is None  # cars and buses have both, in either spelling
 
 
-def test_unknown_operations_never_make_a_program_unsatisfiable():
-    registry = OperationRegistry()
-    for op in default_registry():
-        registry.register(op)
+def test_unknown_operations_never_make_a_program_unsatisfiable(builtin_registry_copy):
+    registry = builtin_registry_copy
 
     @register_operation("relate_nearby", inputs=["Object"], output="ObjectSet", registry=registry)
     def relate_nearby(world, obj):

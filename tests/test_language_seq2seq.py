@@ -24,17 +24,11 @@ from po3d_ppl.world import ontology
 CONFIG = TrainConfig(seed=3, epochs=60, batch_size=8, lr=1e-2, dropout=0.0, word_dropout=0.0)
 
 
-@pytest.fixture(scope="module", autouse=True)
-def one_thread():
-    """Small matrices: one thread is faster, and immune to oversubscription when the suite runs in parallel."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("torch_one_thread")
 
 
 @pytest.fixture(scope="module")
-def trained(one_thread):
+def trained(torch_one_thread):
     examples = pair_examples()
     return train_parser(examples, CONFIG, default_registry())
 

@@ -14,8 +14,7 @@ from po3d_ppl.language import (
     program_from_tokens,
     program_to_text,
 )
-from po3d_ppl.language.typecheck import default_registry
-from po3d_ppl.reasoning.registry import OperationRegistry, register_operation
+from po3d_ppl.reasoning.registry import register_operation
 
 
 def test_types_of_every_node_and_overload_resolution():
@@ -77,10 +76,8 @@ def test_json_programs_without_text_report_node_indices():
         check_program(program)
 
 
-def test_user_registered_operation_works_without_touching_the_grammar():
-    registry = OperationRegistry()
-    for op in default_registry():
-        registry.register(op)
+def test_user_registered_operation_works_without_touching_the_grammar(builtin_registry_copy):
+    registry = builtin_registry_copy
 
     @register_operation("relate_above", inputs=["Object"], output="ObjectSet", registry=registry)
     def relate_above(world, obj):
