@@ -148,14 +148,6 @@ class RayCaster:
         self._normal_table = np.concatenate(normals) if normals else np.zeros((0, 3), np.float32)
         self._normal_offset = np.cumsum([0] + [len(n) for n in normals])[:-1].astype(np.int64)
 
-    @property
-    def meshes(self) -> list[trimesh.Trimesh]:
-        return list(self._meshes)
-
-    @property
-    def ids(self) -> np.ndarray:
-        return self._ids.copy()
-
     def subset(self, indices: Sequence[int]) -> RayCaster:
         """A caster over some of this caster's meshes (positions in its list) that reports the same ids."""
         indices = [int(i) for i in indices]

@@ -98,20 +98,17 @@ def path_frames(path: np.ndarray, up: Point, closed_loop: bool = False) -> tuple
     return normal, binormal
 
 
-def sweep(path: np.ndarray, profile: np.ndarray, *, up: Point = (0, 0, 1), closed_loop: bool = False,
-          scales: Sequence[float] | None = None) -> trimesh.Trimesh:
+def sweep(path: np.ndarray, profile: np.ndarray, *, up: Point = (0, 0, 1),
+          closed_loop: bool = False) -> trimesh.Trimesh:
     """Sweep a closed 2D ``profile`` (m, 2) along a 3D ``path`` (n, 3).
 
     Profile coordinates (a, b) map to ``a * normal + b * binormal`` where ``normal`` is ``up`` made orthogonal to
-    the path; ``scales`` optionally scales the profile per path point (tapered tubes).
+    the path.
     """
     p = np.asarray(path, dtype=np.float64)
     prof = np.asarray(profile, dtype=np.float64)
     normal, binormal = path_frames(p, up, closed_loop)
-    s = np.ones(len(p)) if scales is None else np.asarray(scales, dtype=np.float64)
-    sections = [
-        p[k] + s[k] * (prof[:, :1] * normal[k] + prof[:, 1:] * binormal[k]) for k in range(len(p))
-    ]
+    sections = [p[k] + (prof[:, :1] * normal[k] + prof[:, 1:] * binormal[k]) for k in range(len(p))]
     return loft(sections, closed_loop=closed_loop)
 
 
@@ -213,15 +210,11 @@ def torus(center: Point, axis: Point, major: float, minor: float, major_sections
     return sweep(path, circle(minor, minor_sections), up=ax, closed_loop=True)
 
 
-def arc_points(center: Point, radius: float, a0: float, a1: float, n: int, plane: str = "xz") -> np.ndarray:
-    """Points on a circular arc (angles in degrees, measured from +x towards +z in the xz plane)."""
+def arc_points(center: Point, radius: float, a0: float, a1: float, n: int) -> np.ndarray:
+    """Points on a circular arc in the xz plane (angles in degrees, measured from +x towards +z)."""
     t = np.radians(np.linspace(a0, a1, n))
     c = np.asarray(center, dtype=np.float64)
-    if plane == "xz":
-        return c + radius * np.stack([np.cos(t), np.zeros_like(t), np.sin(t)], -1)
-    if plane == "xy":
-        return c + radius * np.stack([np.cos(t), np.sin(t), np.zeros_like(t)], -1)
-    raise ValueError(plane)
+    return c + radius * np.stack([np.cos(t), np.zeros_like(t), np.sin(t)], -1)
 
 
 def fender(center: Point, radius: float, a0: float, a1: float, width: float, thickness: float,
@@ -275,9 +268,3 @@ def disc(center: Point, radius: float, thickness: float, axis: Point = (0, 1, 0)
     c = np.asarray(center, dtype=np.float64)
     a = _unit(np.asarray(axis, dtype=np.float64))
     return tube(c - a * thickness / 2, c + a * thickness / 2, radius, sections)
-
-
-def extrude(polygon: np.ndarray, direction: Point) -> trimesh.Trimesh:
-    """Extrude a planar, star-shaped 3D polygon (n, 3) along ``direction`` (panels, plates, tailgates)."""
-    poly = np.asarray(polygon, dtype=np.float64)
-    return loft([poly, poly + np.asarray(direction, dtype=np.float64)])
