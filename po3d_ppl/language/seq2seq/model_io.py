@@ -100,16 +100,13 @@ class QuestionParser:
 
     @classmethod
     def load(cls, directory: Path | str | None = None, registry: OperationRegistry | None = None,
-             device: str | torch.device = "cpu", verify: bool = True) -> QuestionParser:
+             device: str | torch.device = "cpu") -> QuestionParser:
         """Load the shipped parser (or the one in ``directory``), verifying the files against the manifest."""
         from po3d_ppl.model_store import model_files, models_dir
 
         directory = Path(directory) if directory is not None else models_dir()
-        if verify:
-            files = model_files(MODEL_NAME, directory, RETRAIN)
-            weights, vocab_path = files[WEIGHTS], files[VOCABULARY]
-        else:
-            weights, vocab_path = directory / WEIGHTS, directory / VOCABULARY
+        files = model_files(MODEL_NAME, directory, RETRAIN)
+        weights, vocab_path = files[WEIGHTS], files[VOCABULARY]
         try:
             meta = json.loads(vocab_path.read_text())
             if meta.get("format") != FORMAT:
