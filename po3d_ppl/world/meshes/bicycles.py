@@ -90,9 +90,8 @@ class BikeBuilder:
 
     def saddle(self, at: tuple[float, float], name: str = "saddle") -> None:
         x, z = at
-        pts = np.concatenate([P.ellipsoid((x + 0.1, 0, z), (0.06, 0.03, 0.025), 1).vertices,
-                              P.ellipsoid((x - 0.05, 0, z), (0.07, 0.085, 0.035), 1).vertices])
-        self.add(name, P.hull(pts), finish="rubber")
+        self.add(name, P.hull_of(P.ellipsoid((x + 0.1, 0, z), (0.06, 0.03, 0.025), 1),
+                                 P.ellipsoid((x - 0.05, 0, z), (0.07, 0.085, 0.035), 1)), finish="rubber")
 
     def fork(self, suspension: bool = False) -> None:
         g = self.g
@@ -123,9 +122,8 @@ class BikeBuilder:
             y_arm = sign * 0.075
             p0 = b + [0, y_arm, 0]
             p1 = p0 + dd * g.crank
-            self.add(f"crank_arm_{side}", P.hull(np.concatenate([
-                P.disc(p0, 0.022, 0.014, (0, 1, 0), 10).vertices, P.disc(p1, 0.015, 0.014, (0, 1, 0), 10).vertices])),
-                finish="chrome")
+            arm = P.hull_of(P.disc(p0, 0.022, 0.014, (0, 1, 0), 10), P.disc(p1, 0.015, 0.014, (0, 1, 0), 10))
+            self.add(f"crank_arm_{side}", arm, finish="chrome")
             pedal = P.rounded_box(p1 + [0, sign * 0.055, 0], (0.09, 0.085, 0.022), 0.008)
             self.add(f"pedal_{side}", pedal, finish="rubber")
             self.asm.body(P.tube(p1, p1 + [0, sign * 0.02, 0], 0.007, 6), finish="chrome")

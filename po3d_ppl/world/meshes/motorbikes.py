@@ -122,18 +122,18 @@ def chopper() -> Assembly:
     m.frame([((head[0], 0, head[1]), (-0.45, 0, 0.7)), ((head[0], 0, head[1] - 0.05), (0.15, 0, 0.25)),
              ((0.15, 0, 0.25), (-0.5, 0, 0.25)), ((-0.45, 0, 0.7), (rx, 0.1, rR)), ((-0.45, 0, 0.7), (rx, -0.1, rR)),
              ((-0.5, 0, 0.25), (rx, 0.1, rR)), ((-0.5, 0, 0.25), (rx, -0.1, rR))], 0.025)
-    m.asm.add("gas_tank", P.hull(np.concatenate([P.ellipsoid((0.12, 0, 0.9), (0.26, 0.13, 0.1), 1).vertices,
-                                                P.ellipsoid((-0.12, 0, 0.85), (0.1, 0.1, 0.07), 1).vertices])))
-    m.asm.add("seat", P.hull(np.concatenate([P.ellipsoid((-0.25, 0, 0.74), (0.14, 0.15, 0.05), 1).vertices,
-                                            P.ellipsoid((-0.52, 0, 0.78), (0.1, 0.1, 0.05), 1).vertices])))
+    m.asm.add("gas_tank", P.hull_of(P.ellipsoid((0.12, 0, 0.9), (0.26, 0.13, 0.1), 1),
+                                    P.ellipsoid((-0.12, 0, 0.85), (0.1, 0.1, 0.07), 1)))
+    m.asm.add("seat", P.hull_of(P.ellipsoid((-0.25, 0, 0.74), (0.14, 0.15, 0.05), 1),
+                                P.ellipsoid((-0.52, 0, 0.78), (0.1, 0.1, 0.05), 1)))
     m.asm.add("panel", P.rounded_box((-0.38, 0, 0.55), (0.28, 0.24, 0.22), 0.05))
     # V-twin engine: crankcase and two cylinders
     m.asm.add("engine", P.rounded_box((-0.08, 0, 0.33), (0.36, 0.22, 0.2), 0.05), finish="chrome")
-    m.asm.add("engine", P.hull(np.concatenate([P.disc((0.0, 0, 0.5), 0.08, 0.16, (0.5, 0, 1)).vertices,
-                                              P.disc((0.09, 0, 0.68), 0.08, 0.16, (0.5, 0, 1)).vertices])),
+    m.asm.add("engine", P.hull_of(P.disc((0.0, 0, 0.5), 0.08, 0.16, (0.5, 0, 1)),
+                                  P.disc((0.09, 0, 0.68), 0.08, 0.16, (0.5, 0, 1))),
               finish="chrome")
-    m.asm.add("engine", P.hull(np.concatenate([P.disc((-0.16, 0, 0.5), 0.08, 0.16, (-0.5, 0, 1)).vertices,
-                                              P.disc((-0.25, 0, 0.66), 0.08, 0.16, (-0.5, 0, 1)).vertices])),
+    m.asm.add("engine", P.hull_of(P.disc((-0.16, 0, 0.5), 0.08, 0.16, (-0.5, 0, 1)),
+                                  P.disc((-0.25, 0, 0.66), 0.08, 0.16, (-0.5, 0, 1))),
               finish="chrome")
     m.chain("drive_chain", (-0.12, 0.3), 0.07, (rx, rR), 0.13, 0.15)
     m.asm.add("exhaust_right_s", m.exhaust([(0.05, 0.1, 0.62), (0.12, 0.2, 0.45), (-0.1, 0.22, 0.3),
@@ -170,11 +170,11 @@ def dirtbike() -> Assembly:
         m.asm.body(P.tube((-0.12, sign * 0.08, 0.38), (rx, sign * 0.09, rR), 0.025, 8))
     m.asm.body(P.tube((-0.3, 0, 0.85), (-0.16, 0, 0.4), 0.04, 10), finish="chrome")  # shock
     m.asm.add("engine", P.rounded_box((0.05, 0, 0.4), (0.34, 0.2, 0.24), 0.05), finish="chrome")
-    m.asm.add("engine", P.hull(np.concatenate([P.disc((0.08, 0, 0.55), 0.09, 0.17, (0.3, 0, 1)).vertices,
-                                              P.disc((0.13, 0, 0.72), 0.08, 0.15, (0.3, 0, 1)).vertices])),
+    m.asm.add("engine", P.hull_of(P.disc((0.08, 0, 0.55), 0.09, 0.17, (0.3, 0, 1)),
+                                  P.disc((0.13, 0, 0.72), 0.08, 0.15, (0.3, 0, 1))),
               finish="chrome")
-    m.asm.add("gas_tank", P.hull(np.concatenate([P.ellipsoid((0.2, 0, 0.98), (0.16, 0.14, 0.1), 1).vertices,
-                                                P.ellipsoid((0.0, 0, 0.98), (0.1, 0.12, 0.07), 1).vertices])))
+    m.asm.add("gas_tank", P.hull_of(P.ellipsoid((0.2, 0, 0.98), (0.16, 0.14, 0.1), 1),
+                                    P.ellipsoid((0.0, 0, 0.98), (0.1, 0.12, 0.07), 1)))
     m.asm.add("seat", P.rounded_box((-0.32, 0, 1.0), (0.8, 0.2, 0.08), 0.035), finish="rubber")
     # radiator shrouds either side of the tank
     m.asm.add("cover_front", *(P.hull(np.array([[0.38, s * 0.12, 1.02], [0.32, s * 0.2, 0.78], [0.12, s * 0.16, 0.72],
@@ -219,12 +219,12 @@ def scooter() -> Assembly:
     m.asm.body(P.fender((fx, 0, R), R + 0.03, 10, 150, 0.14, 0.02, n=10))
     m.asm.add("panel", P.rounded_box((0.12, 0, 0.3), (0.62, 0.34, 0.06), 0.02), finish="rubber")
     m.asm.body(P.rounded_box((0.1, 0, 0.24), (0.66, 0.3, 0.1), 0.03))
-    cowl = P.hull(np.concatenate([P.ellipsoid((-0.5, 0, 0.58), (0.33, 0.2, 0.16), 2).vertices,
-                                  P.ellipsoid((-0.18, 0, 0.45), (0.1, 0.16, 0.16), 1).vertices,
-                                  P.ellipsoid((-0.75, 0, 0.62), (0.1, 0.12, 0.1), 1).vertices]))
+    cowl = P.hull_of(P.ellipsoid((-0.5, 0, 0.58), (0.33, 0.2, 0.16), 2),
+                     P.ellipsoid((-0.18, 0, 0.45), (0.1, 0.16, 0.16), 1),
+                     P.ellipsoid((-0.75, 0, 0.62), (0.1, 0.12, 0.1), 1))
     m.asm.add("cover_back", cowl)
-    m.asm.add("seat", P.hull(np.concatenate([P.ellipsoid((-0.22, 0, 0.76), (0.12, 0.16, 0.06), 1).vertices,
-                                            P.ellipsoid((-0.6, 0, 0.78), (0.14, 0.14, 0.06), 1).vertices])),
+    m.asm.add("seat", P.hull_of(P.ellipsoid((-0.22, 0, 0.76), (0.12, 0.16, 0.06), 1),
+                                P.ellipsoid((-0.6, 0, 0.78), (0.14, 0.14, 0.06), 1)),
               finish="rubber")
     m.asm.add("engine", P.rounded_box((-0.38, 0.06, 0.3), (0.34, 0.16, 0.18), 0.05), finish="chrome")
     m.asm.add("fender_back", P.fender((rx, 0, R), R + 0.03, 15, 170, 0.14, 0.015, n=12))
@@ -255,22 +255,22 @@ def cruiser() -> Assembly:
             0.025)
     # engine (not a listed part of the cruiser, so unlabelled)
     m.asm.body(P.rounded_box((-0.08, 0, 0.36), (0.4, 0.24, 0.22), 0.05), finish="chrome")
-    m.asm.body(P.hull(np.concatenate([P.disc((0.02, 0, 0.5), 0.085, 0.17, (0.5, 0, 1)).vertices,
-                                      P.disc((0.1, 0, 0.66), 0.085, 0.17, (0.5, 0, 1)).vertices])), finish="chrome")
-    m.asm.body(P.hull(np.concatenate([P.disc((-0.16, 0, 0.5), 0.085, 0.17, (-0.5, 0, 1)).vertices,
-                                      P.disc((-0.24, 0, 0.66), 0.085, 0.17, (-0.5, 0, 1)).vertices])), finish="chrome")
-    m.asm.add("gas_tank", P.hull(np.concatenate([P.ellipsoid((0.15, 0, 0.86), (0.24, 0.16, 0.1), 1).vertices,
-                                                P.ellipsoid((-0.1, 0, 0.82), (0.08, 0.12, 0.08), 1).vertices])))
-    m.asm.add("seat", P.hull(np.concatenate([P.ellipsoid((-0.28, 0, 0.76), (0.16, 0.18, 0.06), 1).vertices,
-                                            P.ellipsoid((-0.6, 0, 0.84), (0.14, 0.15, 0.06), 1).vertices])),
+    m.asm.body(P.hull_of(P.disc((0.02, 0, 0.5), 0.085, 0.17, (0.5, 0, 1)),
+                         P.disc((0.1, 0, 0.66), 0.085, 0.17, (0.5, 0, 1))), finish="chrome")
+    m.asm.body(P.hull_of(P.disc((-0.16, 0, 0.5), 0.085, 0.17, (-0.5, 0, 1)),
+                         P.disc((-0.24, 0, 0.66), 0.085, 0.17, (-0.5, 0, 1))), finish="chrome")
+    m.asm.add("gas_tank", P.hull_of(P.ellipsoid((0.15, 0, 0.86), (0.24, 0.16, 0.1), 1),
+                                    P.ellipsoid((-0.1, 0, 0.82), (0.08, 0.12, 0.08), 1)))
+    m.asm.add("seat", P.hull_of(P.ellipsoid((-0.28, 0, 0.76), (0.16, 0.18, 0.06), 1),
+                                P.ellipsoid((-0.6, 0, 0.84), (0.14, 0.15, 0.06), 1)),
               finish="rubber")
     m.asm.add("panel", P.rounded_box((-0.38, 0, 0.56), (0.26, 0.3, 0.2), 0.05))
     m.asm.add("cover_back", P.hull(np.array([[-0.72, 0.16, 0.8], [-0.72, -0.16, 0.8], [-1.05, 0.12, 0.78],
                                              [-1.05, -0.12, 0.78], [-0.72, 0.17, 0.62], [-0.72, -0.17, 0.62],
                                              [-1.08, 0.13, 0.62], [-1.08, -0.13, 0.62]])))
     # batwing fairing around the headlight, windscreen on top
-    fairing = P.hull(np.concatenate([P.ellipsoid((0.55, 0, 0.98), (0.12, 0.38, 0.14), 2).vertices,
-                                     P.ellipsoid((0.45, 0, 1.0), (0.06, 0.3, 0.1), 1).vertices]))
+    fairing = P.hull_of(P.ellipsoid((0.55, 0, 0.98), (0.12, 0.38, 0.14), 2),
+                        P.ellipsoid((0.45, 0, 1.0), (0.06, 0.3, 0.1), 1))
     m.asm.add("cover_front", fairing)
     m.asm.add("windscreen", P.hull(np.array([[0.6, 0.28, 1.06], [0.6, -0.28, 1.06], [0.5, 0.22, 1.32],
                                              [0.5, -0.22, 1.32], [0.58, 0.28, 1.06], [0.58, -0.28, 1.06],

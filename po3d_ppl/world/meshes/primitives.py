@@ -146,6 +146,11 @@ def hull(points: np.ndarray) -> trimesh.Trimesh:
     return mesh
 
 
+def hull_of(*meshes: trimesh.Trimesh) -> trimesh.Trimesh:
+    """Convex hull of several solids together (tanks, seats, fairings blended from ellipsoids; crank arms)."""
+    return hull(np.concatenate([m.vertices for m in meshes]))
+
+
 def ellipsoid(center: Point, radii: Point, subdivisions: int = 2) -> trimesh.Trimesh:
     mesh = trimesh.creation.icosphere(subdivisions=subdivisions)
     mesh.apply_scale(np.asarray(radii, dtype=np.float64))
