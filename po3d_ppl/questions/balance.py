@@ -15,25 +15,16 @@ processes generated the candidates. Two rules:
 
 from __future__ import annotations
 
-import math
 from collections import Counter
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from po3d_ppl.questions.generator import Candidate
-from po3d_ppl.reasoning.registry import value_vocabulary
+from po3d_ppl.questions.generator import Candidate, answer_support
 
 FamilyKey = tuple[str, int]
 #: (question set, template file, family index)
 BalanceKey = tuple[str, str, int]
-
-
-def _support(answer_type: str) -> float:
-    """Number of possible answers of an output type (unbounded for counts)."""
-    if answer_type == "Integer":
-        return math.inf
-    return len(value_vocabulary(answer_type)) if answer_type != "Bool" else 2
 
 
 def answer_key(candidate: Candidate) -> str:
@@ -58,7 +49,7 @@ class AnswerBalancer:
         others = [c for k, c in counts.items() if k != key]
         if mine > max(others, default=0):
             return False
-        return _support(candidate.answer_type) < 3 or mine + 1 <= max(1, sum(others))
+        return answer_support(candidate.answer_type) < 3 or mine + 1 <= max(1, sum(others))
 
     def record(self, family: BalanceKey, candidate: Candidate) -> None:
         self.answers.setdefault(family, Counter())[answer_key(candidate)] += 1

@@ -25,6 +25,7 @@ chooses among them to balance answers across a whole dataset.
 from __future__ import annotations
 
 import dataclasses
+import math
 import zlib
 from dataclasses import dataclass
 from functools import cache
@@ -38,7 +39,7 @@ from po3d_ppl.questions.reference import InvalidStep
 from po3d_ppl.questions.template_format import (FILTER_KINDS, OBJECT_SLOTS, PART_SLOTS, Template,
                                                 load_template_file)
 from po3d_ppl.questions.verbalise import fill_text, verbalise_answer
-from po3d_ppl.reasoning.registry import REGISTRY, Operation
+from po3d_ppl.reasoning.registry import REGISTRY, Operation, value_vocabulary
 from po3d_ppl.world import ontology
 from po3d_ppl.world.scene import Scene
 
@@ -49,12 +50,13 @@ RELATIONAL = frozenset({
     "relate_occluding_part", "filter_occluder",
 })
 _SET_TYPES = {"ObjectSet": "Object", "PartSet": "Part"}
-#: Values a count/exist filter may name although the scene has none of them.
-_OBJECT_VOCABULARY = {"Pose": ontology.POSE_LABELS, "Size": ontology.SIZES, "Color": ontology.COLORS,
-                      "Material": ontology.MATERIALS, "Shape": ontology.SHAPE_VALUES}
-#: How many different answers an output type can have, when that is fewer than the candidates asked for.
-_SMALL_SUPPORT = {"Bool": 2, "Material": len(ontology.MATERIALS), "Size": len(ontology.SIZES),
-                  "Direction": len(ontology.POSES)}
+
+
+def answer_support(answer_type: str) -> float:
+    """How many different answers an output type can have (unbounded for counts)."""
+    if answer_type == "Integer":
+        return math.inf
+    return 2 if answer_type == "Bool" else len(value_vocabulary(answer_type))
 
 
 @dataclass(frozen=True)
@@ -248,7 +250,7 @@ class SceneQuestionGenerator:
         answers 0 / no. Object slots range over the whole vocabulary, part slots over the scene's values."""
         vocab = [self.index.values(step.part_level, slot) for slot in step.slots]
         if not step.part_level:
-            vocab = [{v: vals.get(v, 0) for v in _OBJECT_VOCABULARY[slot]} for slot, vals in zip(step.slots, vocab)]
+            vocab = [{v: vals.get(v, 0) for v in value_vocabulary(slot)} for slot, vals in zip(step.slots, vocab)]
         found: dict[Key, int] = {}
         for key, out in outs.items():
             if not out or sum(v is not None for v in key) > 1:
@@ -285,7 +287,7 @@ class _Search:
         self.found: list[Candidate] = []
         self.answers: set = set()
         self.visits = 0
-        self.wanted = min(gen.max_candidates, _SMALL_SUPPORT.get(self.tmpl.answer_type, gen.max_candidates))
+        self.wanted = min(gen.max_candidates, answer_support(self.tmpl.answer_type))
 
     def run(self) -> list[Candidate]:
         self._visit(0)
