@@ -138,6 +138,11 @@ class CarBuilder:
             self.asm.add(f"{which}_right_door", b.panel(self.x(s0), self.x(s1), RIGHT_SIDE, 0.03, 0.88))
         self.asm.add("hood", b.panel(self.x(sh.hood[0]), self.x(sh.hood[1]), TOP))
         self.asm.add("roof", b.panel(self.x(sh.roof[0]), self.x(sh.roof[1]), TOP, 0.02, 0.98))
+        self.rear_panels()
+
+    def rear_panels(self) -> None:
+        """The trunk: a lid on the deck (sedans) and a panel on the rear face."""
+        sh, b = self.shape, self.body
         if sh.deck is not None:
             self.asm.add("trunk", b.panel(self.x(sh.deck[0]), self.x(sh.deck[1]), TOP))
         z0, z1 = sh.tailgate
@@ -308,17 +313,11 @@ class PickupBuilder(CarBuilder):
             self.asm.body(P.rounded_box((mid, sign * (hw - 0.04), (floor_z + wall_top) / 2), (length, 0.08, wall_top - floor_z), 0.02))
         self.asm.add("trunk", P.box((mid, 0, floor_z + 0.01), (length - 0.1, 2 * hw - 0.16, 0.02)))
         self.asm.add("trunk", P.rounded_box((x1 + 0.04, 0, (floor_z + wall_top) / 2 - 0.02), (0.08, 2 * hw - 0.02, wall_top - floor_z + 0.04), 0.02))
-        self.tail_x = x1
 
     # the bed's rear replaces the body's rear face for lights, bumper and trunk
-    def panels(self) -> None:
-        sh, b = self.shape, self.body
-        for which, s0, s1 in self.door_ranges():
-            self.asm.add(f"{which}_left_door", b.panel(self.x(s0), self.x(s1), LEFT_SIDE, 0.12, 0.97))
-            self.asm.add(f"{which}_right_door", b.panel(self.x(s0), self.x(s1), RIGHT_SIDE, 0.03, 0.88))
-        self.asm.add("hood", b.panel(self.x(sh.hood[0]), self.x(sh.hood[1]), TOP))
-        self.asm.add("roof", b.panel(self.x(sh.roof[0]), self.x(sh.roof[1]), TOP, 0.02, 0.98))
-        self.asm.body(b.end_panel("back", 1.25, 1.6, 0.25, thickness=0.02), finish="glass")
+    def rear_panels(self) -> None:
+        """The cab's rear window (the trunk is the bed, see :meth:`bed`)."""
+        self.asm.body(self.body.end_panel("back", 1.25, 1.6, 0.25, thickness=0.02), finish="glass")
 
     def lights(self) -> None:
         hz, tz = self.shape.light_z
