@@ -67,6 +67,16 @@ class BikeBuilder:
             self.add(name, P.tube((x, side, R), (x + rim * np.cos(a), 0.0, R + rim * np.sin(a)), 0.004, 3),
                      finish="chrome")
 
+    def single_rider(self, suspension: bool = False) -> None:
+        """What every one-seat bike shares: both wheels, the frame, the fork, the saddle and the drivetrain."""
+        g = self.g
+        self.wheel("wheel_front", g.front_axle)
+        self.wheel("wheel_back", g.rear_axle)
+        self.frame()
+        self.fork(suspension)
+        self.saddle(g.saddle)
+        self.drivetrain(g.bb, g.crank_angle)
+
     def frame(self) -> None:
         g = self.g
         f = g.tube
@@ -190,12 +200,7 @@ def road() -> Assembly:
     g = Geometry(front_axle=0.5, rear_axle=-0.5, wheel_radius=0.34, tyre=0.013, bb=(-0.09, 0.27),
                  seat_top=(-0.25, 0.8), head_top=(0.34, 0.82), head_bottom=(0.38, 0.68), saddle=(-0.3, 0.92))
     b = BikeBuilder("road", g)
-    b.wheel("wheel_front", g.front_axle)
-    b.wheel("wheel_back", g.rear_axle)
-    b.frame()
-    b.fork()
-    b.saddle(g.saddle)
-    b.drivetrain(g.bb, g.crank_angle)
+    b.single_rider()
     b.drop_bars(b.stem(0.03, 0.1), 0.2)
     b.rim_brakes()
     return b.asm
@@ -206,12 +211,7 @@ def utility() -> Assembly:
     g = Geometry(front_axle=0.55, rear_axle=-0.52, wheel_radius=0.35, tyre=0.02, bb=(-0.08, 0.28),
                  seat_top=(-0.27, 0.82), head_top=(0.36, 0.9), head_bottom=(0.42, 0.7), saddle=(-0.32, 0.98), step_through=True)
     b = BikeBuilder("utility", g)
-    b.wheel("wheel_front", g.front_axle)
-    b.wheel("wheel_back", g.rear_axle)
-    b.frame()
-    b.fork()
-    b.saddle(g.saddle)
-    b.drivetrain(g.bb, g.crank_angle)
+    b.single_rider()
     b.flat_bars(b.stem(0.2, 0.02), 0.33, sweep=0.2, rise=0.04)
     b.rim_brakes()
     b.fenders(0.07)
@@ -235,12 +235,7 @@ def mountain() -> Assembly:
     g = Geometry(front_axle=0.56, rear_axle=-0.5, wheel_radius=0.34, tyre=0.03, bb=(-0.06, 0.31),
                  seat_top=(-0.22, 0.78), head_top=(0.38, 0.86), head_bottom=(0.44, 0.72), saddle=(-0.27, 0.95))
     b = BikeBuilder("mountain", g)
-    b.wheel("wheel_front", g.front_axle)
-    b.wheel("wheel_back", g.rear_axle)
-    b.frame()
-    b.fork(suspension=True)
-    b.saddle(g.saddle)
-    b.drivetrain(g.bb, g.crank_angle)
+    b.single_rider(suspension=True)
     b.flat_bars(b.stem(0.04, 0.07), 0.36, sweep=0.03, rise=0.02)
     b.disc_brakes()
     return b.asm
