@@ -23,6 +23,7 @@ from po3d_ppl.world import ontology, rle
 from po3d_ppl.world.renderer import GBuffer, PlacedMesh, SoloView
 from po3d_ppl.world.sampler import ObjectSpec
 from po3d_ppl.world.scene import (
+    DECIMALS,
     Camera,
     EntityAnnotation,
     Occlusion,
@@ -31,10 +32,6 @@ from po3d_ppl.world.scene import (
     SceneObject,
     compute_relationships,
 )
-
-#: Decimals kept for every float of a scene (positions, angles, camera): far below rendering precision, and it
-#: keeps exported files byte-identical across platforms whose last-bit arithmetic differs.
-DECIMALS = 6
 
 
 @dataclass(frozen=True)

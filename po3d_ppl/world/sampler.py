@@ -23,7 +23,7 @@ import numpy as np
 
 from po3d_ppl.errors import InputError
 from po3d_ppl.world import ontology
-from po3d_ppl.world.scene import Camera, PartStyle
+from po3d_ppl.world.scene import DECIMALS, MATRIX_DECIMALS, Camera, PartStyle
 
 #: CLEVR's base camera (the Blender default camera of ``base_scene.blend``), looking at the origin.
 BASE_CAMERA_LOCATION: tuple[float, float, float] = (7.3589, -6.9258, 4.9583)
@@ -180,8 +180,9 @@ def make_camera(width: int = 640, height: int = 480, offset: tuple[float, float,
     is the one that looks from the base location at the origin."""
     base = np.asarray(BASE_CAMERA_LOCATION)
     rotation = look_at_rotation(base)
-    location = np.round(base + np.asarray(offset, dtype=np.float64), 6)
-    return Camera(width, height, clevr_intrinsics(width, height), camera_matrix(location, np.round(rotation, 9)))
+    location = np.round(base + np.asarray(offset, dtype=np.float64), DECIMALS)
+    return Camera(width, height, clevr_intrinsics(width, height),
+                  camera_matrix(location, np.round(rotation, MATRIX_DECIMALS)))
 
 
 def sample_camera(rng: np.random.Generator, config: SceneConfig) -> Camera:
@@ -245,9 +246,9 @@ def sample_objects(rng: np.random.Generator, config: SceneConfig,
         half = 0.5 * (bounds[1][:2] - bounds[0][:2]) * scale * (1.0 + config.footprint_margin)
         tall = (bounds[1][2] - bounds[0][2]) * scale
         for _try in range(config.max_placement_retries):
-            x, y = (round(float(v), 6) for v in rng.uniform(-POSITION_RANGE, POSITION_RANGE, size=2))
-            rotation = round(float(rng.uniform(0.0, 360.0)), 6)
-            elevation = round(float(rng.uniform(0.0, config.max_elevation)), 6) if elevated else 0.0
+            x, y = (round(float(v), DECIMALS) for v in rng.uniform(-POSITION_RANGE, POSITION_RANGE, size=2))
+            rotation = round(float(rng.uniform(0.0, 360.0)), DECIMALS)
+            elevation = round(float(rng.uniform(0.0, config.max_elevation)), DECIMALS) if elevated else 0.0
             cand_corners = _corners(x, y, rotation, half)
             z0, z1 = elevation, elevation + tall
             near = (heights[:, 1] >= z0) & (heights[:, 0] <= z1)

@@ -28,6 +28,11 @@ MIN_VISIBLE_BEFORE_PIXELS = 20
 MIN_OCCLUDER_PIXELS = 16
 #: CLEVR's spatial-relation margin: j is left of i iff dot(p_j - p_i, left) > RELATION_EPS.
 RELATION_EPS = 0.2
+#: Decimals kept for every float of a scene (positions, angles, depths, camera location): far below rendering
+#: precision, and it keeps exported files byte-identical across platforms whose last-bit arithmetic differs.
+DECIMALS = 6
+#: Decimals kept for camera matrices (rotation, and the inverse and projection matrices derived on export).
+MATRIX_DECIMALS = 9
 
 Vec3 = tuple[float, float, float]
 BBox = tuple[int, int, int, int]  # x, y, w, h (x2, y2 exclusive); all zero for an empty mask

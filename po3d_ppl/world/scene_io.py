@@ -21,8 +21,8 @@ camera intrinsics and image size - goes under an extra ``"po3d"`` key that publi
   object had no occluder - the file does not say which those are;
 - ``3d_coords`` of public scenes are the model origins (z = -scale * info_z), not box centres.
 
-Output is deterministic: fixed key order, floats already rounded in the scene (annotate.DECIMALS), derived
-matrices rounded to 9 decimals.
+Output is deterministic: fixed key order, floats already rounded in the scene (``scene.DECIMALS``), derived
+matrices rounded to ``scene.MATRIX_DECIMALS``.
 """
 
 from __future__ import annotations
@@ -39,6 +39,8 @@ from po3d_ppl.errors import InputError, SceneFormatError
 from po3d_ppl.world import ontology, rle
 from po3d_ppl.world.sampler import clevr_intrinsics
 from po3d_ppl.world.scene import (
+    DECIMALS,
+    MATRIX_DECIMALS,
     MIN_VISIBLE_BEFORE_PIXELS,
     Camera,
     EntityAnnotation,
@@ -58,8 +60,6 @@ CLIP_START, CLIP_END = 0.1, 100.0
 DIRECTION_NAMES = ("behind", "front", "left", "right", "above", "below")
 RELATION_NAMES = ("behind", "front", "left", "right")
 FORMAT_VERSION = 1
-DECIMALS = 6
-MATRIX_DECIMALS = 9
 
 
 def _round(x: float, d: int = DECIMALS) -> float:
