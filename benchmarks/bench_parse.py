@@ -1,6 +1,6 @@
 """Latency of parsing one question with the shipped parser, against unconstrained greedy decoding.
 
-    python benchmarks/bench_parse.py --data /work/data/parser_test_s202 --questions 300
+    python benchmarks/bench_parse.py --data DIR --questions 300     # DIR: a `po3d dataset build` directory
 
 Per question (batch of one, after warm-up) it times
 - ``beam5``: what ``QuestionParser.parse`` does by default (constrained beam search, width 5, best program),
