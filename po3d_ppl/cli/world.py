@@ -6,6 +6,8 @@ from pathlib import Path
 
 import typer
 
+from po3d_ppl.errors import InputError
+
 world_app = typer.Typer(help="The synthetic 3D world: vehicle meshes and scenes.", no_args_is_help=True)
 
 
@@ -20,17 +22,13 @@ def meshes(
 
     from rich.console import Console
 
-    from po3d_ppl.errors import InputError
     from po3d_ppl.world import contact_sheet as cs
     from po3d_ppl.world.meshes import export_glb, vehicle_mesh
     from po3d_ppl.world.ontology import SUBTYPES
 
     chosen = list(subtype) if subtype else list(SUBTYPES)
     meshes_by_name = {s: vehicle_mesh(s) for s in chosen}  # UnknownNameError names the closest subtypes
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError("--out", f"cannot create directory {out}: {exc.strerror}") from None
+    _make_out_dir(out)
     console = Console(stderr=True)
     colors = {}
     for name, vm in meshes_by_name.items():
@@ -46,10 +44,15 @@ def meshes(
             console.print(f"{cs.write_png(out / f'legend_{name}.png', cs.part_legend(name))}", highlight=False)
 
 
+def _make_out_dir(out: Path) -> None:
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError("--out", f"cannot create directory {out}: {exc.strerror}") from None
+
+
 def _int_option(option: str, text: str, lo: int, hi: int) -> int:
     """Parse an integer option here rather than in click, so bad values get the one-line error of ``po3d``."""
-    from po3d_ppl.errors import InputError
-
     try:
         value = int(text)
     except ValueError:
@@ -74,7 +77,6 @@ def render(
     import cv2
     from rich.console import Console
 
-    from po3d_ppl.errors import InputError
     from po3d_ppl.world.generate import generate_scene
     from po3d_ppl.world.sampler import SceneConfig
     from po3d_ppl.world.scene_io import save_scene
@@ -87,10 +89,7 @@ def render(
     else:
         config = SceneConfig.with_objects(_int_option("--objects", objects, 1, 30),
                                           elevated_aeroplanes=elevated_aeroplanes, **size)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError("--out", f"cannot create directory {out}: {exc.strerror}") from None
+    _make_out_dir(out)
     start = time.perf_counter()
     result = generate_scene(seed_value, config)
     elapsed = time.perf_counter() - start
