@@ -246,10 +246,10 @@ class ArticulatedBuilder(BusBuilder):
         (_, s_end), (s_start, _) = self.shape.bodies
         x0, x1 = self.x(s_end), self.x(s_start)
         n = 9
+        prof = self.bodies[0].profile_at(self.bodies[0].back)
+        c = np.array([0.0, prof[:, 1].mean()])
         for k, x in enumerate(np.linspace(x0, x1, n)):
             shrink = 0.06 if k % 2 else 0.0
-            prof = self.bodies[0].profile_at(self.bodies[0].back)
-            c = np.array([0.0, prof[:, 1].mean()])
             scaled = c + (prof - c) * (1 - shrink)
             ring = np.column_stack([np.full(len(prof), x), scaled])
             self.asm.body(P.loft([ring + [0.045, 0, 0], ring - [0.045, 0, 0]]), finish="rubber")
