@@ -18,8 +18,9 @@ from po3d_ppl.errors import InputError
 from po3d_ppl.reasoning import values
 from po3d_ppl.reasoning.evidence import ScenePriors, SceneEvidence
 from po3d_ppl.reasoning.execution import run_program
-from po3d_ppl.reasoning.inference.concrete_world import ConcreteWorld
-from po3d_ppl.reasoning.scene_model import scene_model
+from po3d_ppl.reasoning.inference.concrete_world import ConcreteWorld, object_centric
+from po3d_ppl.reasoning.posterior import element_layout
+from po3d_ppl.reasoning.scene_model import SITES, scene_model
 
 #: Output types a program may end in (an answer), with their value vocabularies in ``values``.
 ANSWER_TYPES = ("Bool", "Integer", *values.ANSWER_VOCABULARY)
@@ -42,34 +43,13 @@ def to_typed_program(program):
     return check_program(program)
 
 
+_PLATES = {spec.name: spec.plates for spec in SITES}
+
+
 def _object_centric(latents: dict[str, torch.Tensor], evidence: SceneEvidence):
     """A ``ConcreteWorld`` source reading the scene model's latents (plate layout) object by object."""
-
-    def rank5(t: torch.Tensor) -> torch.Tensor:
-        return t.reshape([1] * (5 - t.dim()) + list(t.shape)) if t.dim() < 5 else t
-
-    def source(name: str) -> torch.Tensor:
-        if name in ("exists", "subtype", "color", "material", "size", "occluded"):
-            return rank5(latents[name])[..., 0, 0, :, 0]
-        if name == "pose_degree":
-            index = rank5(latents["pose"])[..., 0, 0, :, 0].long()
-            support = evidence.pose_support.expand(*index.shape[:-1], *evidence.pose_support.shape)
-            return support.gather(-1, index.unsqueeze(-1)).squeeze(-1)
-        if name == "occludes":
-            return rank5(latents["occludes"])[..., :, 0, :, 0].transpose(-1, -2)
-        subtype = source("subtype").long()
-        if name in ("part_state", "part_occluded"):
-            table = rank5(latents[name])[..., 0, :, :, :]  # [*B, 21, N, P]
-            table = table.expand(*subtype.shape[:-1], *table.shape[-3:])
-            return torch.take_along_dim(table, subtype[..., None, :, None], dim=-3).squeeze(-3)
-        if name == "part_occludes":
-            table = rank5(latents[name])  # [*B, N_j, 21, N_i, P]
-            table = table.expand(*subtype.shape[:-1], *table.shape[-4:])
-            chosen = torch.take_along_dim(table, subtype[..., None, None, :, None], dim=-3).squeeze(-3)
-            return chosen.permute(*range(chosen.dim() - 3), -2, -1, -3)  # [*B, N_i, P, N_j]
-        raise KeyError(name)
-
-    return source
+    site = lambda name: element_layout(latents[name], _PLATES[name])  # noqa: E731
+    return lambda name: object_centric(name, site, evidence.pose_support)
 
 
 @dataclass(frozen=True)

@@ -75,30 +75,33 @@ def site_posteriors(evidence: SceneEvidence, priors: ScenePriors = ScenePriors()
             continue  # constant factors do not change any posterior
         logp[owner] = lp if owner not in logp else logp[owner] + lp
     probs, support = {}, {}
-    n = evidence.num_objects
     for spec in SITES:
         lp = logp[spec.name]
         (dim,) = _enum_dim(lp.shape)
         table = torch.softmax(lp.to(DTYPE), dim=dim)
         table = table.movedim(dim, -1)  # values last; remaining: enum singletons + plates (-4..-1 -> -5..-2)
         table = table.reshape(table.shape[-5:])  # [occluders, models, objects, parts, K]
-        probs[spec.name] = _arrange(table, spec.plates, n)
+        # the values axis leads as a batch axis while the plates are rearranged; tables whose plates were permuted
+        # are copied contiguous for the gathers that read them
+        table = element_layout(table.movedim(-1, 0), spec.plates).movedim(0, -1)
+        probs[spec.name] = table.contiguous() if len(spec.plates) > 1 else table
         k = probs[spec.name].shape[-1]
         support[spec.name] = evidence.pose_support if spec.name == "pose" else torch.arange(k)
     return SitePosteriors(probs, support)
 
 
-def _arrange(table: torch.Tensor, plates: tuple[str, ...], n: int) -> torch.Tensor:
-    """[occluders, models, objects, parts, K] (singletons where a plate is absent) -> the site's ``_LAYOUT``."""
-    j, s, i, p, k = range(5)
-    shape = table.shape
-    full = table.expand(max(shape[j], 1), shape[s], max(shape[i], 1), shape[p], shape[k])
+def element_layout(value: torch.Tensor, plates: tuple[str, ...]) -> torch.Tensor:
+    """A site's value in the scene model's plate layout (``[*B, occluders, models, objects, parts]``, singletons
+    where a plate is absent, at least one batch dimension assumed) in the site's ``_LAYOUT`` without the values
+    axis, batch first: ``[*B, N]``, ``[*B, N_i, N_j]``, ``[*B, N, 21, P]`` or ``[*B, N_i, 21, P, N_j]``."""
+    if value.dim() < 5:
+        value = value.reshape([1] * (5 - value.dim()) + list(value.shape))
     if plates == ("objects",):
-        return full[0, 0, :, 0, :]
+        return value[..., 0, 0, :, 0]
     if plates == ("occluders", "objects"):
-        return full[:, 0, :, 0, :].transpose(0, 1).contiguous()
+        return value[..., :, 0, :, 0].transpose(-1, -2)
     if plates == ("models", "objects", "parts"):
-        return full[0].permute(1, 0, 2, 3).contiguous()
+        return value[..., 0, :, :, :].transpose(-3, -2)
     if plates == ("occluders", "models", "objects", "parts"):
-        return full.permute(2, 1, 3, 0, 4).contiguous()
+        return value.movedim(-4, -1).transpose(-4, -3)
     raise AssertionError(f"unexpected plates {plates}")

@@ -8,6 +8,9 @@ program only pays for the latents it reads.
 
 Pivots are index tensors of shape ``[*B]`` (-1 once the execution became invalid); scalar program values have shape
 ``[*B, 1, 1]``. ``valid`` tracks, per batch element, whether every ``unique`` so far found exactly one member.
+
+:func:`object_centric` builds a source from values laid out like the posterior tables (per subtype hypothesis),
+which is what the compiled model's latents and the dense enumeration hold.
 """
 
 from __future__ import annotations
@@ -21,6 +24,35 @@ import torch
 from po3d_ppl.reasoning import values
 from po3d_ppl.reasoning.evidence import STATE_COLOR, STATE_MATERIAL
 from po3d_ppl.reasoning.world import LatentWorld, pose_label_ids
+
+
+#: Object-level latents that sources give as they are, ``[*B, N]``.
+OBJECT_LATENTS = ("exists", "subtype", "color", "material", "size", "occluded")
+
+
+def pose_degrees(support: torch.Tensor, index: torch.Tensor) -> torch.Tensor:
+    """Azimuths ``[*B, N]`` that pose-grid indices ``[*B, N]`` pick from the per-proposal grids ``support [N, K]``."""
+    index = index.long()
+    return support.expand(*index.shape[:-1], *support.shape).gather(-1, index.unsqueeze(-1)).squeeze(-1)
+
+
+def object_centric(name: str, site: Callable[[str], torch.Tensor], pose_support: torch.Tensor) -> torch.Tensor:
+    """Source value ``name`` from ``site(site_name)``: a site's values in the posterior tables' layout without the
+    values axis, batch first (``[*B, N]``, ``[*B, N_i, N_j]``, ``[*B, N, 21, P]``, ``[*B, N_i, 21, P, N_j]``).
+    Part latents are read at each object's own subtype hypothesis."""
+    if name in OBJECT_LATENTS or name == "occludes":
+        return site(name)
+    if name == "pose_degree":
+        return pose_degrees(pose_support, site("pose"))
+    if name not in ("part_state", "part_occluded", "part_occludes"):
+        raise KeyError(name)
+    models = -3 if name == "part_occludes" else -2  # the subtype-hypothesis axis
+    subtype = site("subtype").long()
+    index = subtype.reshape(*subtype.shape, *([1] * -models))  # [*B, N, 1, 1(, 1)]
+    table = site(name)
+    rank = max(index.dim(), table.dim())  # batch ranks may differ (broadcast)
+    index, table = (t.reshape([1] * (rank - t.dim()) + list(t.shape)) for t in (index, table))
+    return torch.take_along_dim(table, index, dim=models).squeeze(models)
 
 
 @dataclass(frozen=True)

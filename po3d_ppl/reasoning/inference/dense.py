@@ -15,7 +15,7 @@ import torch
 
 from po3d_ppl.reasoning.evidence import DTYPE, SceneEvidence
 from po3d_ppl.reasoning.execution import run_program
-from po3d_ppl.reasoning.inference.concrete_world import ConcreteWorld
+from po3d_ppl.reasoning.inference.concrete_world import OBJECT_LATENTS, ConcreteWorld, object_centric
 from po3d_ppl.reasoning.inference.enum_world import ExactUnsupported
 from po3d_ppl.reasoning.posterior import SitePosteriors
 from po3d_ppl.reasoning.values import INVALID
@@ -23,9 +23,6 @@ from po3d_ppl.world import ontology
 
 #: Largest number of joint assignments the dense path enumerates.
 MAX_ASSIGNMENTS = 1 << 18
-
-_OBJECT = ("exists", "subtype", "color", "material", "size", "occluded")
-
 
 class DenseTooLarge(ExactUnsupported):
     """The joint support of the latents the program reads is too large to enumerate."""
@@ -43,7 +40,7 @@ class _Tables:
         """(element index tuple into the site's table, its probability vector) for every element of ``site``."""
         probs = self.post.probs[site]
         n = self.n
-        if site in _OBJECT or site == "pose":
+        if site in OBJECT_LATENTS or site == "pose":
             return [((i,), probs[i]) for i in range(n)]
         if site == "occludes":
             return [((i, j), probs[i, j]) for i in range(n) for j in range(n) if i != j]
@@ -58,10 +55,6 @@ class _Tables:
         return out
 
 
-def _site_of(name: str) -> str:
-    return "pose" if name == "pose_degree" else name
-
-
 def dense_distribution(typed, post: SitePosteriors, evidence: SceneEvidence, num_values: int,
                        max_assignments: int = MAX_ASSIGNMENTS) -> tuple[torch.Tensor, float, int]:
     """Answer probabilities per id, invalid mass, and the number of joint assignments enumerated."""
@@ -71,13 +64,12 @@ def dense_distribution(typed, post: SitePosteriors, evidence: SceneEvidence, num
     # 1. which sites does the program read? (run it on the most probable scene)
     read: set[str] = set()
 
-    def argmax_view(name: str) -> torch.Tensor:
-        read.add(_site_of(name))
-        return _view(name, {site: tables.argmax[site].unsqueeze(0) for site in post.probs}, evidence)
+    def argmax_site(site: str) -> torch.Tensor:
+        read.add(site)
+        return tables.argmax[site].unsqueeze(0)
 
-    run_program(typed, ConcreteWorld(argmax_view, (1,), n, evidence.positions, evidence.depths, evidence.directions))
-    if read & {"part_state", "part_occluded", "part_occludes"}:
-        read.add("subtype")
+    run_program(typed, ConcreteWorld(lambda name: object_centric(name, argmax_site, evidence.pose_support), (1,), n,
+                                     evidence.positions, evidence.depths, evidence.directions))
 
     # 2. enumerate the joint support of their elements
     subtypes = [[int(s) for s in torch.nonzero(post.probs["subtype"][i] > 0).flatten()] for i in range(n)]
@@ -96,30 +88,16 @@ def dense_distribution(typed, post: SitePosteriors, evidence: SceneEvidence, num
     grids = grids.reshape(count, len(free)).long()
     weights = torch.ones(count, dtype=DTYPE)
     batch = {site: tables.argmax[site].unsqueeze(0).repeat(count, *([1] * tables.argmax[site].dim()))
-             for site in post.probs}
+             for site in read}  # the sites the program does not read never reach it
     for column, (site, index, support, probs) in enumerate(free):
         choice = grids[:, column]
         batch[site][(slice(None), *index)] = support[choice]
         weights = weights * probs[choice]
 
     # 3. run the program on every assignment at once
-    world = ConcreteWorld(lambda name: _view(name, batch, evidence), (count,), n, evidence.positions,
-                          evidence.depths, evidence.directions)
+    world = ConcreteWorld(lambda name: object_centric(name, batch.__getitem__, evidence.pose_support), (count,), n,
+                          evidence.positions, evidence.depths, evidence.directions)
     value = run_program(typed, world).expand(count, 1, 1).reshape(count)
     valid = world.valid & (value != INVALID)
     probs = torch.zeros(num_values, dtype=DTYPE).scatter_add_(0, value[valid], weights[valid])
     return probs, float(max(0.0, 1.0 - probs.sum())), count
-
-
-def _view(name: str, batch: dict[str, torch.Tensor], evidence: SceneEvidence) -> torch.Tensor:
-    """Object-centric values (``ConcreteWorld``'s source protocol) from element-indexed batches."""
-    if name in _OBJECT or name == "occludes":
-        return batch[name]
-    if name == "pose_degree":
-        index = batch["pose"]
-        return evidence.pose_support.expand(index.shape[0], *evidence.pose_support.shape).gather(
-            -1, index.unsqueeze(-1)).squeeze(-1)
-    subtype = batch["subtype"]  # [B, N]
-    table = batch[name]  # [B, N, 21, P] or [B, N, 21, P, N_j]
-    index = subtype.reshape(*subtype.shape, *([1] * (table.dim() - 2)))
-    return torch.take_along_dim(table, index, dim=2).squeeze(2)

@@ -14,7 +14,7 @@ import torch
 
 from po3d_ppl.reasoning.evidence import SceneEvidence
 from po3d_ppl.reasoning.execution import run_program
-from po3d_ppl.reasoning.inference.concrete_world import ConcreteWorld
+from po3d_ppl.reasoning.inference.concrete_world import OBJECT_LATENTS, ConcreteWorld, pose_degrees
 from po3d_ppl.reasoning.posterior import SitePosteriors
 from po3d_ppl.reasoning.values import INVALID
 
@@ -46,13 +46,10 @@ class PosteriorSampleSource:
 
     def _sample(self, name: str) -> torch.Tensor:
         post = self.post
-        if name in ("exists", "subtype", "color", "material", "size", "occluded"):
+        if name in OBJECT_LATENTS or name == "occludes":
             return _draw(post.probs[name], self.s, self.gen)
         if name == "pose_degree":
-            index = _draw(post.probs["pose"], self.s, self.gen)
-            return post.support["pose"].gather(-1, index.T).T
-        if name == "occludes":
-            return _draw(post.probs["occludes"], self.s, self.gen)
+            return pose_degrees(post.support["pose"], _draw(post.probs["pose"], self.s, self.gen))
         # part slots of each sample's subtype: compare one uniform per slot with the cdf's k-th column, gathered
         # by subtype one column at a time (never materialising [S, N, P, ..., K])
         subtype = self("subtype")  # [S, N]
