@@ -91,10 +91,6 @@ class BuildConfig:
     def to_json(self) -> dict:
         return {**dataclasses.asdict(self), "split_fractions": list(self.split_fractions)}
 
-    @classmethod
-    def from_json(cls, data: dict) -> BuildConfig:
-        return cls(**{**data, "split_fractions": tuple(data["split_fractions"])})
-
 
 def split_sizes(n: int, fractions: Sequence[float]) -> tuple[int, int, int]:
     train = round(n * fractions[0])
@@ -214,9 +210,9 @@ class SceneBuildError(Po3dError):
     """A scene of a build could not be made; the message names the scene (picklable across processes)."""
 
 
-def _build_scene_task(root: str, config: dict, index: int) -> tuple[int, SceneTiming]:
+def _build_scene_task(root: Path, config: BuildConfig, index: int) -> SceneTiming:
     try:
-        return index, build_scene(Path(root), BuildConfig.from_json(config), index)
+        return build_scene(root, config, index)
     except Po3dError as exc:  # re-raised as a plain message: typed errors with extra fields do not unpickle
         raise SceneBuildError(f"scene {index}: {exc}") from None
 
@@ -289,15 +285,15 @@ class BuildReport:
 
 
 def _check_config(root: Path, config: BuildConfig) -> None:
-    path = root / "build_config.json"
+    path, wanted = root / "build_config.json", config.to_json()
     if path.is_file():
         existing = json.loads(path.read_text())
-        if existing != config.to_json():
-            diff = sorted(k for k in config.to_json() if existing.get(k) != config.to_json()[k])
+        if existing != wanted:
+            diff = sorted(k for k in wanted if existing.get(k) != wanted[k])
             raise InputError("out", f"{root} holds a build with different settings ({', '.join(diff)}); use another "
                                     "directory or the same settings to resume it")
     else:
-        atomic_write_bytes(path, (json.dumps(config.to_json(), indent=1) + "\n").encode())
+        atomic_write_bytes(path, (json.dumps(wanted, indent=1) + "\n").encode())
 
 
 def _clean_temporaries(root: Path) -> None:
@@ -353,16 +349,14 @@ def _run(root: Path, config: BuildConfig, pending: list[int], workers: int,
 
     try:
         if workers == 1 or total <= 1:
-            payload = config.to_json()
             for k, index in enumerate(pending):
-                yield _build_scene_task(str(root), payload, index)[1]
+                yield _build_scene_task(root, config, index)
                 tick(k + 1)
             return
-        payload = config.to_json()
         with ProcessPoolExecutor(max_workers=min(workers, total), mp_context=get_context("spawn")) as pool:
-            futures = [pool.submit(_build_scene_task, str(root), payload, i) for i in pending]
+            futures = [pool.submit(_build_scene_task, root, config, i) for i in pending]
             for k, future in enumerate(as_completed(futures)):
-                yield future.result()[1]
+                yield future.result()
                 tick(k + 1)
     finally:
         if bar is not None:
