@@ -16,6 +16,8 @@ enumerated trace) and answers any number of programs:
 
 from __future__ import annotations
 
+from functools import cached_property
+
 from po3d_ppl.errors import UnknownNameError
 from po3d_ppl.reasoning import values
 from po3d_ppl.reasoning.answer import AnswerDistribution
@@ -30,17 +32,27 @@ AUTO_EXACT_ELEMENTS = 2e6
 
 
 class SceneReasoner:
-    """Answers programs about one scene; computes the scene model's posterior tables once."""
+    """Answers programs about one scene; computes the scene model's posterior tables (and the baselines' views of
+    them) once."""
 
     def __init__(self, evidence: SceneEvidence, priors: ScenePriors = ScenePriors()):
         self.evidence, self.priors = evidence, priors
-        self._posteriors: SitePosteriors | None = None
 
-    @property
+    @cached_property
     def posteriors(self) -> SitePosteriors:
-        if self._posteriors is None:
-            self._posteriors = site_posteriors(self.evidence, self.priors)
-        return self._posteriors
+        return site_posteriors(self.evidence, self.priors)
+
+    @cached_property
+    def _most_probable_scene(self):
+        from po3d_ppl.reasoning.inference.baselines import most_probable_scene
+
+        return most_probable_scene(self.posteriors, self.evidence)
+
+    @cached_property
+    def _soft_rules(self):
+        from po3d_ppl.reasoning.inference.baselines import soft_rules
+
+        return soft_rules(self.posteriors, self.evidence)
 
     def infer(self, program, method: str = "auto", *, num_samples: int = 4096, seed: int = 0) -> AnswerDistribution:
         if method not in METHODS:
@@ -123,7 +135,7 @@ class SceneReasoner:
 
         from po3d_ppl.reasoning.inference.baselines import thresholded_answer
 
-        answer, valid = thresholded_answer(compiled.typed, self.posteriors, self.evidence)
+        answer, valid = thresholded_answer(compiled.typed, self._most_probable_scene)
         support = self._support(compiled)
         probs = torch.zeros(len(support), dtype=torch.float64)
         if valid:
@@ -133,7 +145,7 @@ class SceneReasoner:
     def _soft(self, compiled, **_):
         from po3d_ppl.reasoning.inference.baselines import soft_distribution
 
-        probs, invalid = soft_distribution(compiled.typed, self.posteriors, self.evidence, len(self._support(compiled)))
+        probs, invalid = soft_distribution(compiled.typed, self._soft_rules, len(self._support(compiled)))
         return self._distribution(compiled, probs, invalid, "soft")
 
 

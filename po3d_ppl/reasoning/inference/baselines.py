@@ -24,19 +24,23 @@ from po3d_ppl.reasoning.latent_scene import argmax_assignment, scene_from_assign
 from po3d_ppl.reasoning.posterior import SitePosteriors
 from po3d_ppl.reasoning.world import pose_label_ids, pose_relation_ids
 from po3d_ppl.world import ontology
-from po3d_ppl.world.scene import RELATION_EPS
+from po3d_ppl.world.scene import RELATION_EPS, Scene
 
 
 class SoftUnsupported(Po3dError):
     """The soft baseline has no rule for an operation (user-registered operations, for instance)."""
 
 
-def thresholded_answer(typed, post: SitePosteriors, evidence: SceneEvidence):
-    """(answer or None, valid) from the reference executor on the most probable scene."""
+def most_probable_scene(post: SitePosteriors, evidence: SceneEvidence) -> Scene:
+    """The scene the thresholded baseline reasons about: every latent at its most probable value."""
+    return scene_from_assignment(argmax_assignment(post), evidence)
+
+
+def thresholded_answer(typed, scene: Scene):
+    """(answer or None, valid) from the reference executor on ``scene`` (see :func:`most_probable_scene`)."""
     from po3d_ppl.language import program_to_json
     from po3d_ppl.questions.executor import execute
 
-    scene = scene_from_assignment(argmax_assignment(post), evidence)
     result = execute(scene, program_to_json(typed.program))
     return result.answer, result.valid
 
@@ -86,8 +90,12 @@ def _poisson_binomial(p: torch.Tensor, size: int) -> torch.Tensor:
     return dist
 
 
-def _soft_rules(m: _Marginals) -> dict[tuple[str, tuple[str, ...]], Callable]:
-    """Soft semantics per (operation, input types)."""
+SoftRules = dict[tuple[str, tuple[str, ...]], Callable]
+
+
+def soft_rules(post: SitePosteriors, evidence: SceneEvidence) -> SoftRules:
+    """Soft semantics per (operation, input types) over one scene's marginals (they depend on nothing else)."""
+    m = _Marginals(post, evidence)
     n = m.n
     not_self = 1 - torch.eye(n, dtype=DTYPE)
     dist_over = lambda table: lambda x: x @ table  # noqa: E731  object distribution -> value distribution
@@ -186,9 +194,9 @@ def _soft_rules(m: _Marginals) -> dict[tuple[str, tuple[str, ...]], Callable]:
     return rules
 
 
-def soft_distribution(typed, post: SitePosteriors, evidence: SceneEvidence, num_values: int) -> tuple[torch.Tensor, float]:
-    """Answer probabilities per id and the invalid mass under independent-probability propagation."""
-    rules = _soft_rules(_Marginals(post, evidence))
+def soft_distribution(typed, rules: SoftRules, num_values: int) -> tuple[torch.Tensor, float]:
+    """Answer probabilities per id and the invalid mass under independent-probability propagation (``rules`` from
+    :func:`soft_rules`)."""
     results = []
     for node in typed.nodes:
         op = node.operation
