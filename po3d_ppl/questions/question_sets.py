@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from po3d_ppl.questions.template_format import Template, load_template_file
+from po3d_ppl.questions.template_format import load_template_file
 
 
 @dataclass(frozen=True)
@@ -24,9 +24,6 @@ class QuestionSet:
     families: tuple[tuple[str, int], ...]
     #: questions emitted per scene (at most one per family)
     per_scene: int
-
-    def templates(self) -> list[Template]:
-        return [load_template_file(f)[i] for f, i in self.families]
 
 
 def _all(filename: str) -> tuple[tuple[str, int], ...]:
