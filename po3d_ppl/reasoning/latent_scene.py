@@ -14,17 +14,16 @@ import numpy as np
 
 from po3d_ppl.reasoning.evidence import SceneEvidence
 from po3d_ppl.reasoning.posterior import SitePosteriors
+from po3d_ppl.reasoning.scene_model import OBJECT_SITES
 from po3d_ppl.world import ontology
 from po3d_ppl.world.scene import EntityAnnotation, Occlusion, PartStyle, Scene, SceneObject, compute_relationships
-
-OBJECT_ELEMENTS = ("exists", "subtype", "color", "material", "size", "pose", "occluded")
 
 
 def argmax_assignment(post: SitePosteriors) -> dict[tuple, int]:
     """The most probable value of every latent element (ties: the lowest index)."""
     out: dict[tuple, int] = {}
     n = post.probs["exists"].shape[0]
-    for name in OBJECT_ELEMENTS:
+    for name in OBJECT_SITES:
         best = post.probs[name].argmax(-1)
         out.update({(name, i): int(best[i]) for i in range(n)})
     occ = post.probs["occludes"].argmax(-1)

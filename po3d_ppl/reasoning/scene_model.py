@@ -57,7 +57,8 @@ SITES: tuple[SiteSpec, ...] = (
     SiteSpec("part_occluded", ("models", "objects", "parts"), 2),
     SiteSpec("part_occludes", ("occluders", "models", "objects", "parts"), 2),
 )
-SITE_NAMES = tuple(s.name for s in SITES)
+#: The object-level sites (one value per proposal), in model order.
+OBJECT_SITES = tuple(s.name for s in SITES if s.plates == ("objects",))
 
 
 def _bernoulli(name: str, prior: float, logodds: torch.Tensor) -> torch.Tensor:

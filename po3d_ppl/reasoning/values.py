@@ -1,8 +1,8 @@
 """Integer codes of program values inside tensors.
 
 Inside the latent world every attribute is a ``long`` tensor of ids into an ontology tuple; ``INVALID`` (-1) marks
-"no value" (an unrecoloured part's colour, a pose in a dead zone) and makes a query or comparison invalid. These
-functions translate between literals (as they appear in programs and answers) and ids.
+"no value" (an unrecoloured part's colour, a pose in a dead zone) and makes a query or comparison invalid. This
+module holds the answer vocabularies (id -> answer) and the id tables that operations index with.
 """
 
 from __future__ import annotations
@@ -11,7 +11,6 @@ from functools import cache
 
 import torch
 
-from po3d_ppl.errors import UnknownNameError
 from po3d_ppl.world import ontology
 
 INVALID = -1
@@ -25,26 +24,6 @@ ANSWER_VOCABULARY: dict[str, tuple[str, ...]] = {
     "Partname": ontology.RAW_PART_NAMES,
     "Direction": ontology.POSES,
 }
-
-
-def encode(value_type: str, value: str) -> int:
-    """Id of an answer-type literal (``Color`` 'red' -> 1)."""
-    vocab = ANSWER_VOCABULARY[value_type]
-    try:
-        return vocab.index(value)
-    except ValueError:
-        raise UnknownNameError(f"{value_type} value", value, vocab) from None
-
-
-def decode(value_type: str, code: int):
-    """Python answer for an id: a string for attribute types, bool for Bool, int for Integer."""
-    if code == INVALID:
-        return None
-    if value_type == "Bool":
-        return bool(code)
-    if value_type == "Integer":
-        return int(code)
-    return ANSWER_VOCABULARY[value_type][code]
 
 
 def support(value_type: str, max_count: int) -> list:

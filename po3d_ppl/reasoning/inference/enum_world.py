@@ -29,11 +29,9 @@ from po3d_ppl.reasoning import values
 from po3d_ppl.reasoning.evidence import DTYPE, STATE_COLOR, STATE_MATERIAL, SceneEvidence
 from po3d_ppl.reasoning.inference.sop import Sop
 from po3d_ppl.reasoning.posterior import SitePosteriors
+from po3d_ppl.reasoning.scene_model import OBJECT_SITES
 from po3d_ppl.reasoning.world import LatentWorld, pose_label_ids
 from po3d_ppl.world import ontology
-
-OBJECT_SITES = ("exists", "subtype", "color", "material", "size", "pose", "occluded")
-PART_SITES = ("part_state", "part_occluded")
 
 
 class ExactUnsupported(Po3dError):

@@ -43,7 +43,6 @@ def _present(t: torch.Tensor) -> list[int]:
     return [p for p in range(-t.dim(), 0) if t.shape[p] > 1]
 
 
-
 def _rank(t: torch.Tensor, rank: int) -> torch.Tensor:
     return t.reshape([1] * (rank - t.dim()) + list(t.shape)) if t.dim() < rank else t
 
@@ -284,6 +283,7 @@ class _Masses:
         q_at = {p: _substitute(t, world, rep, merged) for p, t in q.items()}
         aggregates = [(a.dim, sub(a.members)) for a in world.part_aggregates]
         return self.contractor.masses(plain, q_at, slotted, aggregates)
+
 
 def _indicator(world: EnumWorld, partition: list[list[Dim]]) -> torch.Tensor:
     """1 where the pivots' values coincide exactly as the partition says."""
