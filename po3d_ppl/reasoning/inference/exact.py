@@ -94,7 +94,7 @@ class _Contractor:
         size = math.prod(self._size(p) for p in out)
         self.peak = max(self.peak, size)
         if size > self.max_elements:
-            raise ExactTooCostly(f"exact inference needs a {size:.2e}-element tensor (limit {self.max_elements:.0e})")
+            raise ExactTooCostly(f"exact inference needs a {size:.2e}-element tensor (limit {self.max_elements:.2g})")
         if not operands:
             return torch.ones((), dtype=DTYPE)
         with torch.backends.opt_einsum.flags(enabled=True, strategy="greedy"):  # path search dominates otherwise
