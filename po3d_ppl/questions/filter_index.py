@@ -23,7 +23,6 @@ Key = tuple[str | None, ...]
 
 class FilterIndex:
     def __init__(self, ctx: SceneContext):
-        self.ctx = ctx
         self.all_objects = (1 << ctx.num_objects) - 1
         self.object_values: dict[str, dict[str, int]] = {t: {} for t in ("Pose", "Size", "Color", "Material",
                                                                           "Shape")}
