@@ -338,9 +338,15 @@ class EnumWorld(LatentWorld):
         raise AttributeError(name)
 
     # ---- structural operations -----------------------------------------------------------------------------------
-    def _check_object_level(self, members: Sop, what: str) -> None:
-        if _varies_along(members, -1) or any(d.kind == "part" for d in self.dims_of(members)):
-            raise ExactUnsupported(f"{what} got a set that depends on part slots")
+    def is_part_level(self, value) -> bool:
+        """Whether a set or factor varies over part slots (along the slot axis or a part latent's dimension)."""
+        return _varies_along(Sop.lift(value), -1) or any(d.kind == "part" for d in self.dims_of(value))
+
+    def _new_pivot(self) -> Dim:
+        """A guess of an object index (the result of ``unique``)."""
+        pivot = self.alloc(f"J{len(self.pivot_dims)}", self.num_objects, "global")
+        self.pivot_dims.append(pivot)
+        return pivot
 
     def _owner_candidate(self, members: Sop) -> Dim | None:
         """An existing pivot dimension J such that the set only has members with object index == J."""
@@ -351,13 +357,13 @@ class EnumWorld(LatentWorld):
 
     def unique_object(self, objects):
         members = Sop.lift(objects)
-        self._check_object_level(members, "unique")
+        if self.is_part_level(members):
+            raise ExactUnsupported("unique got a set that depends on part slots")
         pivot = self._owner_candidate(members)
         if pivot is not None:  # the set can only hold that pivot's object: no new guess needed
             self.factors.append(Factor(members, None, owner=pivot))
             return ObjectPivot(pivot)
-        pivot = self.alloc(f"J{len(self.pivot_dims)}", self.num_objects, "global")
-        self.pivot_dims.append(pivot)
+        pivot = self._new_pivot()
         self.factors.append(Factor(members, ~members, owner=pivot))
         return ObjectPivot(pivot)
 
@@ -366,8 +372,7 @@ class EnumWorld(LatentWorld):
         owner = self._owner_candidate(members)
         off = None
         if owner is None:
-            owner = self.alloc(f"J{len(self.pivot_dims)}", self.num_objects, "global")
-            self.pivot_dims.append(owner)
+            owner = self._new_pivot()
             off = ~members
         slot = self.alloc(f"PP{len(self.dims)}", self.num_parts, "global")
         self.factors.append(Factor(~members, off, owner=owner, slot=slot, at_slot=members))
@@ -383,7 +388,7 @@ class EnumWorld(LatentWorld):
 
     def _aggregate(self, members, cap: int, name: str) -> torch.Tensor:
         members = Sop.lift(members)
-        if _varies_along(members, -1) or any(d.kind == "part" for d in self.dims_of(members)):
+        if self.is_part_level(members):
             if name == "exist":
                 members = Sop.lift(self.any_part(members))
             else:

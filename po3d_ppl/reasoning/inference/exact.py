@@ -119,10 +119,6 @@ class _Contractor:
             frontier += _present(q[p])
         return out
 
-    def is_part_level(self, factor: Sop) -> bool:
-        return any((f.dim() >= 1 and f.shape[-1] > 1) or any(self.kind.get(p) == "part" for p in _present(f))
-                   for _, fs in factor.terms for f in fs)
-
     def sum_of_products(self, factors: list[Sop], q, kinds: tuple[str, ...], keep) -> torch.Tensor:
         total = torch.zeros((), dtype=DTYPE)
         for combo in itertools.product(*(f.terms for f in factors)):
@@ -146,8 +142,8 @@ class _Contractor:
         ``[R=0] prod_p(1-T_p) + [R=1] (prod_p 1 - prod_p(1-T_p))``, each product taken together with the other
         part-level factors.
         """
-        part_level = [f for f in factors if self.is_part_level(f)]
-        object_level = [f for f in factors if not self.is_part_level(f)]
+        part_level = [f for f in factors if self.world.is_part_level(f)]
+        object_level = [f for f in factors if not self.world.is_part_level(f)]
 
         def part_product(extra: list[Sop]) -> torch.Tensor | None:
             if slotted:
