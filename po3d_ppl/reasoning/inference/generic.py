@@ -68,6 +68,14 @@ def _log(value: torch.Tensor) -> torch.Tensor:
     return torch.log(value.clamp(min=0.0))
 
 
+def _guess(name: str, size: int) -> torch.Tensor:
+    """An enumerated site without a prior of its own (a pivot, witness or running count): uniform, with its
+    ``1/size`` compensated so that only its constraint factors weigh its values."""
+    value = pyro.sample(name, dist.Categorical(logits=torch.zeros(size, dtype=DTYPE)))
+    pyro.factor(f"{name}_scale", torch.tensor(math.log(size), dtype=DTYPE))
+    return value
+
+
 def generic_distribution(typed, posteriors: SitePosteriors, evidence: SceneEvidence,
                          num_values: int) -> tuple[torch.Tensor, float]:
     world = EnumWorld(posteriors, evidence)
@@ -78,16 +86,14 @@ def generic_distribution(typed, posteriors: SitePosteriors, evidence: SceneEvide
     locals_ = [d for d in world.dims if d.kind == "local" and d not in flags]
     part_dims = [d for d in world.dims if d.kind == "part"]
     parts = torch.arange(p)
-    uniform = lambda size: dist.Categorical(logits=torch.zeros(size, dtype=DTYPE))  # noqa: E731
 
     def model():
         env: dict[int, torch.Tensor] = {}
-        for d in globals_:  # guesses: uniform, compensated so the model's total mass is the valid mass
+        for d in globals_:  # guesses: compensated so the model's total mass is the valid mass
             if d.size == 1:  # nothing to enumerate (Pyro cannot pack a size-1 enumeration dim)
                 env[d.pos] = torch.tensor(0)
                 continue
-            env[d.pos] = pyro.sample(d.name, uniform(d.size))
-            pyro.factor(f"{d.name}_scale", torch.tensor(math.log(d.size), dtype=DTYPE))
+            env[d.pos] = _guess(d.name, d.size)
         states = {agg.dim.pos: torch.tensor(0) for agg in world.aggregates}
         for k in pyro.markov(range(n)):
             for d in locals_:
@@ -99,12 +105,10 @@ def generic_distribution(typed, posteriors: SitePosteriors, evidence: SceneEvide
                     env[d.pos] = pyro.sample(f"{d.name}_{k}", dist.Categorical(
                         probs=_evaluate(world.q[d], env, k, parts, keep=d.pos)))
                 else:  # a witness: no prior, its constraint factor selects its value
-                    env[d.pos] = pyro.sample(f"{d.name}_{k}", uniform(d.size))
-                    pyro.factor(f"{d.name}_{k}_scale", torch.tensor(math.log(d.size), dtype=DTYPE))
+                    env[d.pos] = _guess(f"{d.name}_{k}", d.size)
             witnesses = {}
             for a, flag in enumerate(flags):  # "some part is a member": its first member part, or none (= p)
-                witnesses[flag] = pyro.sample(f"witness{a}_{k}", uniform(p + 1))
-                pyro.factor(f"witness{a}_{k}_scale", torch.tensor(math.log(p + 1), dtype=DTYPE))
+                witnesses[flag] = _guess(f"witness{a}_{k}", p + 1)
                 env[flag.pos] = (witnesses[flag] != p).long()
             at = {d.pos: (env[d.pos] == k) for d in world.pivot_dims}
             with pyro.plate(f"parts_{k}", p, dim=-1):
@@ -130,8 +134,7 @@ def generic_distribution(typed, posteriors: SitePosteriors, evidence: SceneEvide
             for a, agg in enumerate(world.aggregates):
                 member = _sop_value(agg.members, env, k, parts)
                 prev = states[agg.dim.pos]
-                state = pyro.sample(f"count{a}_{k}", uniform(agg.dim.size))
-                pyro.factor(f"count{a}_{k}_scale", torch.tensor(math.log(agg.dim.size), dtype=DTYPE))
+                state = _guess(f"count{a}_{k}", agg.dim.size)
                 target = torch.where(member > 0.5, (prev + 1).clamp(max=agg.cap), prev)
                 pyro.factor(f"count{a}_{k}_step", _log((state == target).to(DTYPE)))
                 states[agg.dim.pos] = state
