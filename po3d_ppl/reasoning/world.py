@@ -33,6 +33,7 @@ class ObjectView:
     """Attributes of one pivot object (an ``Object`` program value), shaped ``[..., 1, 1]``.
 
     Attributes are fetched lazily from the world, because an exact world creates a dimension per attribute read.
+    ``category`` and ``pose_label`` are derived here from the subtype and the azimuth, as for every object.
     """
 
     _ATTRS = ("index", "exists", "subtype", "category", "color", "material", "size", "pose_label", "pose_degree",
@@ -44,7 +45,12 @@ class ObjectView:
     def __getattr__(self, name: str) -> torch.Tensor:
         if name not in ObjectView._ATTRS:
             raise AttributeError(f"objects have no attribute {name!r} (known: {', '.join(ObjectView._ATTRS)})")
-        value = self._world.pivot_attribute(self._handle, name)
+        if name == "category":
+            value = values.subtype_category()[self.subtype]
+        elif name == "pose_label":
+            value = pose_label_ids(self.pose_degree)
+        else:
+            value = self._world.pivot_attribute(self._handle, name)
         setattr(self, name, value)
         return value
 
@@ -143,7 +149,8 @@ class LatentWorld(ABC):
     # ---- pivots ------------------------------------------------------------------------------------------------
     @abstractmethod
     def pivot_attribute(self, obj, name: str) -> torch.Tensor:
-        """Attribute ``name`` of pivot object ``obj``, shaped [..., 1, 1]."""
+        """Attribute ``name`` of pivot object ``obj``, shaped [..., 1, 1] (any of ``ObjectView``'s but the derived
+        ``category`` and ``pose_label``)."""
 
     @abstractmethod
     def pivot_part_attribute(self, part, name: str) -> torch.Tensor:

@@ -23,7 +23,7 @@ import torch
 
 from po3d_ppl.reasoning import values
 from po3d_ppl.reasoning.evidence import STATE_COLOR, STATE_MATERIAL
-from po3d_ppl.reasoning.world import LatentWorld, pose_label_ids
+from po3d_ppl.reasoning.world import LatentWorld
 
 
 #: Object-level latents that sources give as they are, ``[*B, N]``.
@@ -157,10 +157,6 @@ class ConcreteWorld(LatentWorld):
             return self.positions.squeeze(-2)[obj.clamp(min=0)][..., None, None, :]
         if name == "depth":
             return self.depths.squeeze(-1)[obj.clamp(min=0)][..., None, None]
-        if name == "category":
-            return values.subtype_category()[self.pivot_attribute(obj, "subtype")]
-        if name == "pose_label":
-            return pose_label_ids(self.pivot_attribute(obj, "pose_degree"))
         value = _take(getattr(self, name).squeeze(-1), obj, dim=-1)
         return value[..., None, None]
 

@@ -30,7 +30,7 @@ from po3d_ppl.reasoning.evidence import DTYPE, STATE_COLOR, STATE_MATERIAL, Scen
 from po3d_ppl.reasoning.inference.sop import Sop
 from po3d_ppl.reasoning.posterior import SitePosteriors
 from po3d_ppl.reasoning.scene_model import OBJECT_SITES
-from po3d_ppl.reasoning.world import LatentWorld, pose_label_ids
+from po3d_ppl.reasoning.world import LatentWorld
 from po3d_ppl.world import ontology
 
 
@@ -307,10 +307,6 @@ class EnumWorld(LatentWorld):
             return self.positions.squeeze(-2)[j]
         if name == "depth":
             return self.depths.squeeze(-1)[j]
-        if name == "category":
-            return values.subtype_category()[self.pivot_attribute(obj, "subtype")]
-        if name == "pose_label":
-            return pose_label_ids(self.pivot_attribute(obj, "pose_degree"))
         site = "pose" if name == "pose_degree" else name
         if site not in OBJECT_SITES:
             raise AttributeError(name)
