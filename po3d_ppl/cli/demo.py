@@ -31,7 +31,6 @@ def demo(
     from po3d_ppl.errors import InputError
     from po3d_ppl.language import QuestionParser, program_to_text
     from po3d_ppl.questions.scene_questions import generate_questions
-    from po3d_ppl.questions.verbalise import verbalise_answer
     from po3d_ppl.reasoning import SceneEvidence, SceneReasoner
     from po3d_ppl.world import generate_scene, save_scene
 
@@ -64,10 +63,8 @@ def demo(
         top = ", ".join(f"{dist.words(a)} {p:.2f}" for a, p in list(dist.probs.items())[:3])
         if dist.invalid > 0.005:
             top += f", (invalid) {dist.invalid:.2f}"
-        truth = verbalise_answer(q["program"][-1]["_output"], dist.answer_type) if dist.answer_type != "mixed" \
-            else q["answer"]
         table.add_row(q["question"], f"{program_to_text(parse.best.program)}  [{parse.best.probability:.2f}]",
-                      top, str(truth))
+                      top, str(q["answer"]))
         report.append({"file": name, "question": q["question"], "truth": q["answer"],
                        "parses": [{"program": program_to_text(c.program), "probability": c.probability}
                                   for c in parse.candidates], "answer": dist.to_dict()})
