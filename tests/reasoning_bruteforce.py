@@ -112,7 +112,8 @@ def _latents(ev: SceneEvidence, priors: ScenePriors) -> list[_Latent]:
         subtypes = next(lat for lat in out if lat.key == ("subtype", i)).values
         for s in subtypes:
             for p in range(len(ontology.PARTS[ontology.SUBTYPES[s]])):
-                ll = np.concatenate([[0.0], ev.part_visible_logodds[i, s, p].item() + ev.part_style_loglik[i, s, p].numpy()])
+                style = ev.part_style_loglik[i, s, p].numpy()  # hidden is scored as plain (style 0)
+                ll = np.concatenate([style[:1], ev.part_visible_logodds[i, s, p].item() + style])
                 out.append(_Latent(("part_state", i, s, p), *_categorical(state_prior, ll)))
                 out.append(_Latent(("part_occluded", i, s, p),
                                    *_binary(priors.part_occluded, ev.part_occluded_logodds[i, s, p])))

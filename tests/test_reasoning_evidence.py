@@ -110,3 +110,18 @@ def test_priors_matter_only_under_uncertainty(scene):
     certain = SceneEvidence.from_scene(scene)
     assert torch.equal(site_posteriors(certain, ScenePriors(exists=0.1))["exists"],
                        site_posteriors(certain, ScenePriors(exists=0.9))["exists"])
+
+
+@pytest.mark.parametrize("noise", [0.001, 0.01])
+def test_a_correct_reading_of_a_recoloured_part_is_believed(scene, noise):
+    """A sensor that reads the hood as visible and blue-rubber, and is wrong 1 time in 1/noise, leaves little doubt.
+    (A model that scored 'hidden' as explaining every attribute reading put half the mass on 'hidden' here.)"""
+    suv, hood = ontology.SUBTYPES.index("suv"), ontology.PARTS["suv"].index("hood")
+    ev = SceneEvidence.from_scene(scene)
+    styles = ev.part_style_loglik.shape[-1]
+    ev.part_visible_logodds[0, suv, hood] = np.log((1 - noise) / noise)
+    ev.part_style_loglik[0, suv, hood] = np.log(noise / (styles - 1))
+    ev.part_style_loglik[0, suv, hood, style_index("blue", "rubber")] = np.log(1 - noise)
+    state = site_posteriors(ev)["part_state"][0, suv, hood]
+    assert state[1 + style_index("blue", "rubber")] > 0.9
+    assert state[0] < noise  # hidden

@@ -9,8 +9,10 @@ Part scores are given *per subtype hypothesis* (``[N, 21, P, ...]``): perception
 mesh to find its parts, so a part slot only means something under one subtype. The paper's occlusion matrix S
 appears as ``occludes_logodds`` (object by object) and ``part_occludes_logodds`` (part slot by object).
 
-Part states (``part_state`` latent, :data:`PART_STATES`): 0 = hidden, 1 = visible with the object's own look,
-``2 + 2 * colour + material`` = visible and recoloured (the public ``parts`` field).
+Part states (``part_state`` latent, :data:`NUM_PART_STATES` of them): 0 = hidden, 1 = visible with the object's own look,
+``2 + 2 * colour + material`` = visible and recoloured (the public ``parts`` field). A part's attribute reading
+(``part_style_loglik``) is scored under every state: a hidden part shows no recolouring, so "hidden" takes the
+plain style's column, never a free likelihood of 1.
 """
 
 from __future__ import annotations

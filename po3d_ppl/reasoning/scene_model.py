@@ -99,8 +99,11 @@ def scene_model(evidence: SceneEvidence, priors: ScenePriors = ScenePriors()) ->
 
     with models, objects, parts:
         by_model = lambda t: t.transpose(0, 1)  # noqa: E731  [N, 21, P, ...] -> [21, N, P, ...]
+        # A hidden part shows no recolouring: its attribute reading is scored as the plain style's (column 0).
+        # Scoring it 0 instead would give "hidden" a likelihood of 1 for every reading, more than any visible
+        # state can reach, and pull every recoloured part towards "hidden".
         state_loglik = torch.cat(
-            [torch.zeros_like(evidence.part_visible_logodds).unsqueeze(-1),
+            [evidence.part_style_loglik[..., :1],
              (evidence.part_visible_logodds.unsqueeze(-1) + evidence.part_style_loglik)], dim=-1)
         latents["part_state"] = _categorical("part_state", priors.part_state_probs(), by_model(state_loglik))
         latents["part_occluded"] = _bernoulli("part_occluded", priors.part_occluded,
