@@ -58,3 +58,17 @@ def test_bad_input_is_one_line_with_exit_code_2(scene_file, args, message):
                           capture_output=True, text=True)
     assert proc.returncode == 2, proc.stderr
     assert message in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_demo_answers_rendered_questions_with_certain_evidence(tmp_path):
+    """The README's main job, end to end (render, generate, parse, infer): with certain evidence every top answer
+    is the question's ground truth, and invalid mass can only come from the parser's less likely programs."""
+    result = runner.invoke(app, ["demo", "--out", str(tmp_path), "--questions", "4", "--noise", "0"])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "image.png").stat().st_size > 0 and (tmp_path / "scene.json").is_file()
+    report = json.loads((tmp_path / "answers.json").read_text())
+    assert len(report) == 4
+    for row in report:
+        answer = row["answer"]
+        assert answer["invalid"] <= 1.0 - row["parses"][0]["probability"] + 1e-9
+        assert str(answer["top"]).lower() == str(row["truth"]).lower(), row

@@ -18,7 +18,8 @@ def demo(
     out: Path = typer.Option(Path("po3d_demo"), "--out", help="Directory for the image, scene and answers."),
     seed: int = typer.Option(0, "--seed", help="Scene and question seed."),
     questions: int = typer.Option(6, "--questions", help="How many questions to ask."),
-    noise: float = typer.Option(0.05, "--noise", help="Sensor noise of the evidence (0 = certain)."),
+    noise: float = typer.Option(0.01, "--noise",
+                              help="Sensor noise of the evidence (0 = certain; docs/reasoning.md measures its effect)."),
     method: str = typer.Option("auto", "--method", help="Inference method (see `po3d answer --help`)."),
 ) -> None:
     """Render a scene, ask questions about it, and print answer distributions."""

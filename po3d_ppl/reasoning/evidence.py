@@ -173,8 +173,8 @@ class SceneEvidence:
 
         With ``noise = t`` every categorical observation is wrong with probability ``t`` (uniformly), every binary
         one flipped with probability ``t``, and the azimuth observed with a Gaussian error of ``60 t`` degrees. The
-        log-likelihoods are those of that sensor model, so posteriors are calibrated by construction: the setting
-        for calibration studies of the reasoning engine itself.
+        log-likelihoods are those of that sensor model, so posteriors are calibrated wherever the priors match the
+        world (docs/reasoning.md lists where they do not yet): the setting for calibration studies of the reasoning.
         """
         if not 0.0 <= noise < 1.0:
             raise InputError("noise", f"must be in [0, 1), got {noise}")
