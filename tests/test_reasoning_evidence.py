@@ -125,3 +125,13 @@ def test_a_correct_reading_of_a_recoloured_part_is_believed(scene, noise):
     state = site_posteriors(ev)["part_state"][0, suv, hood]
     assert state[1 + style_index("blue", "rubber")] > 0.9
     assert state[0] < noise  # hidden
+
+
+def test_evidence_without_proposals_is_a_typed_refusal():
+    from po3d_ppl.reasoning import SceneReasoner
+    from po3d_ppl.reasoning.scene_model import EmptyEvidenceError
+
+    reasoner = SceneReasoner(SceneEvidence.from_scene(toy_scene([])))
+    for method in ("exact", "sampling"):
+        with pytest.raises(EmptyEvidenceError, match="no object proposals"):
+            reasoner.infer("count(scene())", method=method)

@@ -26,6 +26,7 @@ import pyro.distributions as dist
 import torch
 from pyro.ops.indexing import Vindex
 
+from po3d_ppl.errors import Po3dError
 from po3d_ppl.reasoning.evidence import DTYPE, NUM_PART_STATES, ScenePriors, SceneEvidence
 from po3d_ppl.world import ontology
 
@@ -74,9 +75,17 @@ def _categorical(name: str, probs: torch.Tensor, loglik: torch.Tensor) -> torch.
     return value
 
 
+class EmptyEvidenceError(Po3dError, NotImplementedError):
+    """Evidence with no object proposals: not supported yet (Pyro plates cannot have size 0, and the engines'
+    tables assume at least one object)."""
+
+
 def scene_model(evidence: SceneEvidence, priors: ScenePriors = ScenePriors()) -> dict[str, torch.Tensor]:
     """Sample a latent scene conditioned on ``evidence``. Returns the latent values by site name."""
     n, k = evidence.num_objects, evidence.num_pose_bins
+    if n == 0:
+        raise EmptyEvidenceError("the evidence has no object proposals; reasoning over an empty scene is not "
+                                 "implemented yet (every program needs at least one proposal)")
     uniform = lambda size: torch.full((size,), 1.0 / size, dtype=DTYPE)  # noqa: E731
     latents: dict[str, torch.Tensor] = {}
     occluders = pyro.plate("occluders", n, dim=OCCLUDERS_DIM)
