@@ -22,12 +22,13 @@ from po3d_ppl.language.errors import (
 from po3d_ppl.language.json_io import program_from_json, program_to_json
 from po3d_ppl.language.parser import parse_program
 from po3d_ppl.language.printer import program_to_text
+from po3d_ppl.language.program_input import as_typed_program
 from po3d_ppl.language.tokens import program_from_tokens, program_to_tokens
 from po3d_ppl.language.typecheck import TypedNode, TypedProgram, check_program
 
 __all__ = [
     "Node", "Program", "Span", "TypedNode", "TypedProgram",
-    "parse_program", "check_program", "program_from_json", "program_to_json", "program_to_text",
+    "parse_program", "check_program", "as_typed_program", "program_from_json", "program_to_json", "program_to_text",
     "program_to_tokens", "program_from_tokens", "QuestionParser",
     "ProgramError", "ProgramSyntaxError", "ProgramStructureError", "ProgramArityError", "ProgramTypeError",
     "ProgramValueError", "UnknownProgramNameError",

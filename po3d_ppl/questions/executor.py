@@ -12,7 +12,8 @@ from dataclasses import dataclass
 
 from po3d_ppl.questions import reference
 from po3d_ppl.questions.context import SceneContext
-from po3d_ppl.questions.program import checked_program, to_public_output
+from po3d_ppl.language import as_typed_program
+from po3d_ppl.questions.program import to_public_output
 from po3d_ppl.questions.reference import InvalidStep
 from po3d_ppl.world.scene import Scene
 
@@ -72,7 +73,7 @@ def execute(scene: Scene | SceneContext, program: object) -> ExecutionResult:
     for an ill-formed program and ``SceneFormatError`` for a malformed scene; an invalid step is a result, not an
     error.
     """
-    typed = checked_program(program)
+    typed = as_typed_program(program, allow_text=False)  # public programs: a string is JSON text
     for index, typed_node in enumerate(typed.nodes):
         op = typed_node.operation
         if op.reference_fn is None:

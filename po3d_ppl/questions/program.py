@@ -1,22 +1,10 @@
-"""How the question engine reads programs, and the public ``_output`` encoding.
+"""The public ``_output`` encoding of intermediate results in question files.
 
-Programs are read and type-checked by the language stage (``po3d_ppl.language``: one JSON reader, one type checker
-for the whole project); this module only adds what is specific to the public question files: the ``_output``
-encoding of intermediate results.
+Programs themselves are read and type-checked by the language stage (``po3d_ppl.language.as_typed_program``: one
+reader and one type checker for the whole project).
 """
 
 from __future__ import annotations
-
-from po3d_ppl.language import Program, TypedProgram, check_program, program_from_json
-
-
-def checked_program(program: object) -> TypedProgram:
-    """A type-checked program from a public node list, a question record with a ``program``, or a ``Program``."""
-    if isinstance(program, TypedProgram):
-        return program
-    if not isinstance(program, Program):
-        program = program_from_json(program)
-    return check_program(program)
 
 
 def part_key(part: tuple[int, int]) -> str:

@@ -26,23 +26,6 @@ from po3d_ppl.reasoning.scene_model import SITES, scene_model
 ANSWER_TYPES = ("Bool", "Integer", *values.ANSWER_VOCABULARY)
 
 
-def to_typed_program(program):
-    """Accept program text, a ``Program`` AST, a public JSON node list, or a ``TypedProgram``; type-check it."""
-    from po3d_ppl.language import Program, TypedProgram, check_program, parse_program, program_from_json
-
-    if isinstance(program, TypedProgram):
-        return program
-    if isinstance(program, str):
-        program = parse_program(program)
-    elif isinstance(program, (list, tuple)) and not isinstance(program, Program):
-        program = program_from_json(list(program))
-    elif isinstance(program, dict) and "program" in program:
-        program = program_from_json(program["program"])
-    if not isinstance(program, Program):
-        raise InputError("program", f"expected program text, a Program, or a JSON node list, got {type(program).__name__}")
-    return check_program(program)
-
-
 _PLATES = {spec.name: spec.plates for spec in SITES}
 
 
@@ -72,7 +55,9 @@ class CompiledProgram:
 
 def compile_program(program) -> CompiledProgram:
     """Type-check ``program`` and compile it (see the module docstring)."""
-    typed = to_typed_program(program)
+    from po3d_ppl.language import as_typed_program  # the language stage imports the registry from this package
+
+    typed = as_typed_program(program)
     if typed.type not in ANSWER_TYPES:
         raise InputError(
             "program", f"its result has type {typed.type}; a question must end in a query, count, exist or "
