@@ -41,7 +41,8 @@ def demo(
     out.mkdir(parents=True, exist_ok=True)
     with console.status("rendering a scene..."):
         rendered = generate_scene(seed)
-    cv2.imwrite(str(out / "image.png"), rendered.image[..., ::-1])
+    if not cv2.imwrite(str(out / "image.png"), rendered.image[..., ::-1]):
+        raise InputError("--out", f"cannot write {out / 'image.png'}")
     save_scene(rendered.scene, out / "scene.json")
     scene = rendered.scene
     console.print(f"scene {seed}: {len(scene.objects)} objects -> {out / 'image.png'}")

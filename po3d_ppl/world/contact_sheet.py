@@ -133,5 +133,7 @@ def write_png(path: str | Path, image_bgr: np.ndarray) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     if not cv2.imwrite(str(path), image_bgr):
-        raise OSError(f"could not write {path}")
+        from po3d_ppl.errors import ImageError
+
+        raise ImageError(f"could not write {path} (is the directory writable and the disk not full?)")
     return path
