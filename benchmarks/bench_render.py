@@ -48,7 +48,8 @@ def main() -> None:
 
     import trimesh
 
-    from po3d_ppl.world import ontology, renderer, sampler
+    from po3d_ppl import ontology
+    from po3d_ppl.world import renderer, sampler
     from po3d_ppl.world.generate import generate_scene, render_layout
     from po3d_ppl.world.meshes import vehicle_mesh
     from po3d_ppl.world.raycast import RayCaster

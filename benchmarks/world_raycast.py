@@ -14,7 +14,7 @@ import time
 import numpy as np
 import trimesh
 
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 from po3d_ppl.world.meshes import vehicle_mesh
 from po3d_ppl.world.raycast import RayCaster, camera_rays, look_at_camera
 

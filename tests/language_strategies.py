@@ -6,7 +6,7 @@ from hypothesis import strategies as st
 
 from po3d_ppl.language.ast import Node, Program
 from po3d_ppl.language.typecheck import default_registry
-from po3d_ppl.reasoning.registry import Operation, OperationRegistry, value_vocabulary
+from po3d_ppl.catalogue import Operation, OperationRegistry, value_vocabulary
 
 
 def _min_depth(registry: OperationRegistry) -> dict[str, int]:

@@ -20,7 +20,7 @@ import torch
 from po3d_ppl.questions.executor import execute
 from po3d_ppl.reasoning.evidence import CERTAIN, ScenePriors, SceneEvidence
 from po3d_ppl.reasoning.latent_scene import scene_from_assignment
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 from po3d_ppl.world.scene import Scene
 
 S = len(ontology.SUBTYPES)

@@ -19,7 +19,7 @@ from po3d_ppl.language.seq2seq.train import TrainConfig, evaluate, train_parser
 from po3d_ppl.language.seq2seq.vocab import tokenize
 from po3d_ppl.language.typecheck import default_registry
 from po3d_ppl.model_store import model_files, write_entry
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 
 CONFIG = TrainConfig(seed=3, epochs=60, batch_size=8, lr=1e-2, dropout=0.0, word_dropout=0.0)
 

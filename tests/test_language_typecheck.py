@@ -14,7 +14,7 @@ from po3d_ppl.language import (
     program_from_tokens,
     program_to_text,
 )
-from po3d_ppl.reasoning.registry import register_operation
+from po3d_ppl.catalogue import register_operation
 
 
 def test_types_of_every_node_and_overload_resolution():

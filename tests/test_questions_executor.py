@@ -12,8 +12,8 @@ from po3d_ppl.questions.context import SceneContext
 from po3d_ppl.questions.executor import execute
 from po3d_ppl.questions.reference import missing_references
 from po3d_ppl.questions.toy_scenes import toy_object, toy_scene
-from po3d_ppl.reasoning.registry import REGISTRY
-from po3d_ppl.world import ontology
+from po3d_ppl.catalogue import REGISTRY
+from po3d_ppl import ontology
 from po3d_ppl.world.scene import EntityAnnotation, Occlusion
 
 

@@ -14,8 +14,8 @@ from po3d_ppl.questions.reference import InvalidStep
 from po3d_ppl.questions.scene_questions import generate_questions
 from po3d_ppl.questions.template_format import load_template_file, template_files
 from po3d_ppl.questions.toy_scenes import random_toy_scene, toy_object, toy_scene
-from po3d_ppl.reasoning.registry import REGISTRY
-from po3d_ppl.world import ontology
+from po3d_ppl.catalogue import REGISTRY
+from po3d_ppl import ontology
 
 ALL_FAMILIES = [(f, t.index) for f in template_files() for t in load_template_file(f)]
 FILTERS = ("filter_pose", "filter_size", "filter_color", "filter_material", "filter_shape", "partfilter_size",

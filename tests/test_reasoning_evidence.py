@@ -17,7 +17,7 @@ from po3d_ppl.reasoning import ScenePriors, SceneEvidence
 from po3d_ppl.reasoning.evidence import EvidenceError, style_index
 from po3d_ppl.reasoning.posterior import CoupledModelError, site_posteriors
 from po3d_ppl.reasoning import scene_model as scene_model_module
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 
 
 @pytest.fixture(scope="module")

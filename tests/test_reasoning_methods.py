@@ -17,7 +17,7 @@ from po3d_ppl.questions.executor import execute
 from po3d_ppl.questions.toy_scenes import toy_object, toy_scene
 from po3d_ppl.reasoning import AnswerDistribution, SceneEvidence, SceneReasoner, compile_program, infer
 from po3d_ppl.reasoning.inference import exact as exact_module
-from po3d_ppl.reasoning.registry import REGISTRY
+from po3d_ppl.catalogue import REGISTRY
 from po3d_ppl.reasoning.values import INVALID
 from reasoning_bruteforce import sparse_random_evidence
 

@@ -11,7 +11,7 @@ import pytest
 import trimesh
 
 from po3d_ppl.cli import main
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 from po3d_ppl.world.meshes import vehicle_mesh
 from po3d_ppl.world.meshes.export import part_palette
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 from po3d_ppl.world.meshes import vehicle_mesh
 from po3d_ppl.world.raycast import RayCaster, look_at_camera, pixel_rays
 from po3d_ppl.world.scene import MIN_VISIBLE_BEFORE_PIXELS

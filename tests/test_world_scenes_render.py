@@ -4,7 +4,8 @@ footprints against objects rendered alone, pixel counts against the id maps, pos
 import numpy as np
 import pytest
 
-from po3d_ppl.world import ontology, rle
+from po3d_ppl import ontology
+from po3d_ppl.world import rle
 from po3d_ppl.world.generate import render_layout
 from po3d_ppl.world.sampler import ObjectSpec, make_camera
 from po3d_ppl.world.scene import MIN_OCCLUDER_PIXELS, PartStyle, occlusion_level

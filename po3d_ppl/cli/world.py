@@ -24,7 +24,7 @@ def meshes(
 
     from po3d_ppl.world import contact_sheet as cs
     from po3d_ppl.world.meshes import export_glb, vehicle_mesh
-    from po3d_ppl.world.ontology import SUBTYPES
+    from po3d_ppl.ontology import SUBTYPES
 
     chosen = list(subtype) if subtype else list(SUBTYPES)
     meshes_by_name = {s: vehicle_mesh(s) for s in chosen}  # UnknownNameError names the closest subtypes

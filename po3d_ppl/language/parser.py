@@ -16,7 +16,7 @@ from lark import Transformer, v_args
 
 from po3d_ppl.language.ast import Node, Program, Span
 from po3d_ppl.language.errors import ProgramStructureError, ProgramSyntaxError, UnknownProgramNameError
-from po3d_ppl.reasoning.registry import OperationRegistry
+from po3d_ppl.catalogue import OperationRegistry
 from po3d_ppl.resources import resource_dir
 
 #: How terminals are described in "expected ..." messages.

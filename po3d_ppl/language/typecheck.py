@@ -16,13 +16,11 @@ from po3d_ppl.language.errors import (
     ProgramValueError,
     UnknownProgramNameError,
 )
-from po3d_ppl.reasoning.registry import REGISTRY, Operation, OperationRegistry, value_vocabulary
+from po3d_ppl.catalogue import REGISTRY, Operation, OperationRegistry, value_vocabulary
 
 
 def default_registry() -> OperationRegistry:
-    """The process-wide registry with the built-in operations loaded (they register on import)."""
-    import po3d_ppl.reasoning.operations  # noqa: F401
-
+    """The process-wide catalogue (the built-in operations are declared when ``po3d_ppl.catalogue`` loads)."""
     return REGISTRY
 
 

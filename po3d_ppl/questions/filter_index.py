@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from po3d_ppl.questions.context import Part, SceneContext
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 
 Key = tuple[str | None, ...]
 

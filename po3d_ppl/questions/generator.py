@@ -39,8 +39,8 @@ from po3d_ppl.questions.reference import InvalidStep
 from po3d_ppl.questions.template_format import (FILTER_KINDS, OBJECT_SLOTS, PART_SLOTS, Template,
                                                 load_template_file)
 from po3d_ppl.questions.verbalise import fill_text, verbalise_answer
-from po3d_ppl.reasoning.registry import REGISTRY, Operation, value_vocabulary
-from po3d_ppl.world import ontology
+from po3d_ppl.catalogue import REGISTRY, Operation, value_vocabulary
+from po3d_ppl import ontology
 from po3d_ppl.world.scene import Scene
 
 #: Steps after which a following unique/filter key must not identify its referent on its own.

@@ -14,10 +14,9 @@ from __future__ import annotations
 
 import operator
 
-import po3d_ppl.reasoning.operations  # noqa: F401  (registers the operations we attach semantics to)
 from po3d_ppl.questions.context import Part, SceneContext
-from po3d_ppl.reasoning.registry import REGISTRY, register_reference
-from po3d_ppl.world import ontology
+from po3d_ppl.catalogue import REGISTRY, register_reference
+from po3d_ppl import ontology
 
 
 class InvalidStep(Exception):

@@ -12,7 +12,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 from po3d_ppl.world.scene import EntityAnnotation, Occlusion, PartStyle, Scene, SceneObject, compute_relationships
 
 #: Ground directions of the toy camera (looking along +y).

@@ -11,7 +11,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 
 #: Alternative wordings of attribute values and of the null description.
 SYNONYMS: dict[str, tuple[str, ...]] = {

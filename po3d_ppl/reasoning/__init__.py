@@ -2,7 +2,7 @@
 
 Public surface (imported lazily so that the language tools, which only need the registry, start fast):
 
-- :func:`register_operation` / :data:`REGISTRY` - add operations (``po3d_ppl.reasoning.registry``);
+- :func:`register_operation` / :data:`REGISTRY` - add operations (``po3d_ppl.catalogue``);
 - :class:`SceneEvidence`, :class:`ScenePriors` - the perception -> reasoning contract (``evidence``);
 - :func:`scene_model` - the latent scene as a Pyro program (``scene_model``);
 - :func:`compile_program` -> :class:`CompiledProgram` - a program as a Pyro model with an ``answer`` site;
@@ -10,7 +10,7 @@ Public surface (imported lazily so that the language tools, which only need the 
   ``dense``, ``generic``, ``auto`` or the ``thresholded``/``soft`` baselines (``inference``).
 """
 
-from po3d_ppl.reasoning.registry import REGISTRY, register_operation, register_reference
+from po3d_ppl.catalogue import REGISTRY, register_operation, register_reference, register_world
 
 _LAZY = {
     "SceneEvidence": "po3d_ppl.reasoning.evidence",
@@ -24,7 +24,7 @@ _LAZY = {
     "AnswerDistribution": "po3d_ppl.reasoning.answer",
 }
 
-__all__ = ["REGISTRY", "register_operation", "register_reference", *_LAZY]
+__all__ = ["REGISTRY", "register_operation", "register_reference", "register_world", *_LAZY]
 
 
 def __getattr__(name: str):

@@ -6,7 +6,7 @@ import json
 import math
 from dataclasses import dataclass, field
 
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 
 
 @dataclass(frozen=True)

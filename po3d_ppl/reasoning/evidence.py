@@ -24,7 +24,7 @@ import numpy as np
 import torch
 
 from po3d_ppl.errors import InputError, Po3dError
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 from po3d_ppl.world.scene import Scene, SceneObject
 
 #: Log-likelihood gap used for "certain" evidence: exp(-CERTAIN) underflows to exactly 0 in float64.

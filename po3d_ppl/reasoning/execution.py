@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import po3d_ppl.reasoning.operations  # noqa: F401  (attaches the built-in operations' latent-world code)
 from po3d_ppl.errors import Po3dError
 from po3d_ppl.reasoning.world import LatentWorld
 

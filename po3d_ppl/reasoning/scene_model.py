@@ -28,7 +28,7 @@ from pyro.ops.indexing import Vindex
 
 from po3d_ppl.errors import Po3dError
 from po3d_ppl.reasoning.evidence import DTYPE, NUM_PART_STATES, ScenePriors, SceneEvidence
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 
 PARTS_DIM, OBJECTS_DIM, MODELS_DIM, OCCLUDERS_DIM = -1, -2, -3, -4
 #: First dimension free for enumeration (left of every plate).

@@ -11,7 +11,7 @@ from functools import cache
 
 import torch
 
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 
 INVALID = -1
 

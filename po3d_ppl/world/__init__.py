@@ -1,6 +1,6 @@
 """The world: scene records, generation (sample -> ray-cast render -> exact annotations) and public scene files.
 
-Names are resolved lazily (PEP 562) so that importing ``po3d_ppl.world.ontology`` or ``.scene`` does not pull in
+Names are resolved lazily (PEP 562) so that importing ``po3d_ppl.ontology`` or ``.scene`` does not pull in
 the renderer's dependencies (trimesh, embree, OpenCV).
 """
 

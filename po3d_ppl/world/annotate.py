@@ -19,7 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from po3d_ppl.world import ontology, rle
+from po3d_ppl import ontology
+from po3d_ppl.world import rle
 from po3d_ppl.world.renderer import GBuffer, PlacedMesh, SoloView
 from po3d_ppl.world.sampler import ObjectSpec
 from po3d_ppl.world.scene import (

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 from po3d_ppl.world.meshes import VehicleMesh, all_vehicle_meshes, vehicle_mesh
 from po3d_ppl.world.meshes.export import face_colors, part_palette
 from po3d_ppl.world.raycast import RayCaster, camera_rays, look_at_camera

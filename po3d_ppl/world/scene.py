@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 
 #: An entity counts as visible before occlusion with at least this many pixels when rendered alone (public rule).
 MIN_VISIBLE_BEFORE_PIXELS = 20

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 from po3d_ppl.world.renderer import GBuffer, PlacedMesh, local_caster
 from po3d_ppl.world.sampler import ObjectSpec
 from po3d_ppl.world.scene import Camera

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 from po3d_ppl.errors import InputError
 from po3d_ppl.language.ast import Program
 from po3d_ppl.language.json_io import program_from_json
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 
 if TYPE_CHECKING:
     from po3d_ppl.questions.dataset import Dataset

@@ -25,7 +25,7 @@ from po3d_ppl.language.seq2seq.train import Trained
 from po3d_ppl.language.seq2seq.vocab import TargetVocabulary, WordVocabulary, tokenize
 from po3d_ppl.language.tokens import program_to_tokens
 from po3d_ppl.language.typecheck import check_program, default_registry
-from po3d_ppl.reasoning.registry import OperationRegistry
+from po3d_ppl.catalogue import OperationRegistry
 
 MODEL_NAME = "question_parser"
 WEIGHTS = f"{MODEL_NAME}.safetensors"

@@ -23,7 +23,7 @@ from po3d_ppl.language.seq2seq.model import ParserConfig, Seq2SeqParser
 from po3d_ppl.language.seq2seq.vocab import TargetVocabulary, WordVocabulary
 from po3d_ppl.language.tokens import program_to_tokens
 from po3d_ppl.language.typecheck import check_program
-from po3d_ppl.reasoning.registry import OperationRegistry
+from po3d_ppl.catalogue import OperationRegistry
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ from po3d_ppl.reasoning.inference.concrete_world import OBJECT_LATENTS, Concrete
 from po3d_ppl.reasoning.inference.enum_world import ExactUnsupported
 from po3d_ppl.reasoning.posterior import SitePosteriors
 from po3d_ppl.reasoning.values import INVALID
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 
 #: Largest number of joint assignments the dense path enumerates.
 MAX_ASSIGNMENTS = 1 << 18

@@ -31,7 +31,7 @@ from po3d_ppl.reasoning.inference.sop import Sop
 from po3d_ppl.reasoning.posterior import SitePosteriors
 from po3d_ppl.reasoning.scene_model import OBJECT_SITES
 from po3d_ppl.reasoning.world import LatentWorld
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 
 
 class ExactUnsupported(Po3dError):

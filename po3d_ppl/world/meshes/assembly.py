@@ -14,7 +14,7 @@ from functools import cached_property
 import numpy as np
 import trimesh
 
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 
 #: Surface kinds. Index = value stored in ``VehicleMesh.face_finish``.
 FINISHES: tuple[str, ...] = ("paint", "glass", "rubber", "chrome", "lamp")

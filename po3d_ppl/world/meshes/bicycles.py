@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 from po3d_ppl.world.meshes import primitives as P
 from po3d_ppl.world.meshes.assembly import Assembly
 from po3d_ppl.world.meshes.registry import builder

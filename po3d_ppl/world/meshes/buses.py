@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 from po3d_ppl.world.meshes import primitives as P
 from po3d_ppl.world.meshes.assembly import Assembly, design_extents
 from po3d_ppl.world.meshes.bodies import LEFT_SIDE, RIGHT_SIDE, TOP, Section, SectionedBody

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from po3d_ppl.world import ontology
+from po3d_ppl import ontology
 from po3d_ppl.world.meshes import primitives as P
 from po3d_ppl.world.meshes.assembly import Assembly, design_extents
 from po3d_ppl.world.meshes.bodies import (

@@ -1,30 +1,38 @@
-"""The operation registry: one place that knows every program function, its types and its implementations.
+"""The operation catalogue: every program function's name, signature, documentation and implementations.
 
-Modelled on detectron2/timm registries: an operation is registered by name with a decorator, and everything else
-(the grammar's vocabulary, the type checker, the reference executor, the Pyro compiler and the generated docs)
-reads it from here. A researcher adds an operation by writing one decorated function in their own module::
+Modelled on detectron2/timm registries. An operation is *declared* once here (name, input types, optional literal
+value type, output type, docs); each stage then *attaches* the implementation it owns by name:
 
-    from po3d_ppl.reasoning import register_operation
+- the reasoning stage attaches ``world_fn(world, *inputs[, value])``, tensor code over a latent world
+  (:func:`register_world`, in ``po3d_ppl.reasoning.operations``);
+- the question stage attaches ``reference_fn(scene_context, *inputs[, value])``, ground-truth semantics
+  (:func:`register_reference`, in ``po3d_ppl.questions.reference``).
+
+So the grammar's vocabulary, the type checker and the question generator read the catalogue without importing
+torch, and no stage has to import another to learn what an operation is. A researcher adds an operation with one
+decorator that declares it and attaches its latent-world implementation together::
+
+    from po3d_ppl.catalogue import register_operation
 
     @register_operation("relate_above", inputs=["Object"], output="ObjectSet")
     def relate_above(world, obj):
         "Objects whose centre is higher than the given object's."
-        return world.exists & (world.position[..., 2] > world.at(obj).position[..., 2] + 0.2)
+        return world.exists & (world.positions[..., 2] > world.at(obj).position[..., 2] + 0.2)
 
 An operation name may have several *overloads* that differ in input types (``unique`` on an ObjectSet gives an
 Object, on a PartSet a Part); the type checker picks the overload whose inputs match.
 
-This module imports nothing heavy (no torch, no pyro) so the language tools stay fast to start.
+This module imports nothing heavy (no torch, no pyro).
 """
 
 from __future__ import annotations
 
 import inspect
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 
+from po3d_ppl import ontology
 from po3d_ppl.errors import Po3dError, UnknownNameError
-from po3d_ppl.world import ontology
 
 #: Types of intermediate program values (spec §2.3).
 ENTITY_TYPES: tuple[str, ...] = ("ObjectSet", "Object", "PartSet", "Part", "Integer", "Bool")
@@ -44,7 +52,8 @@ def value_vocabulary(value_type: str) -> tuple[str, ...]:
 
 
 class RegistryError(Po3dError):
-    """An operation was registered inconsistently (bad type name, clashing overload)."""
+    """An operation was declared or implemented inconsistently (bad type name, clashing overload, no such
+    operation)."""
 
 
 @dataclass(frozen=True)
@@ -62,21 +71,19 @@ class Signature:
 
 @dataclass
 class Operation:
-    """One overload of a program function."""
+    """One overload of a program function: its declaration and the implementations attached to it."""
 
     name: str
     signature: Signature
-    #: Implementation over the latent world (see ``po3d_ppl.reasoning.world``); None for reference-only ops.
-    world_fn: Callable | None
     doc: str
-    #: Which family the operation belongs to in the docs (core, part, pose, occlusion, or the user's module).
+    #: Which family the operation belongs to in the docs (core, parts, pose, occlusion, or the user's module).
     family: str
-    #: Implementation over a ground-truth :class:`~po3d_ppl.world.scene.Scene` (the reference executor).
-    reference_fn: Callable | None = None
-    #: Structural operations (aggregations over objects or parts, pivots) are implemented by each inference
-    #: engine rather than by ``world_fn``.
-    structural: bool = False
+    #: Where it was declared (named in clash errors).
     module: str = ""
+    #: Implementation over a latent world (``po3d_ppl.reasoning.world``); None until the reasoning stage loads.
+    world_fn: Callable | None = None
+    #: Implementation over a ground-truth scene (the reference executor); None until the question stage loads.
+    reference_fn: Callable | None = None
 
     @property
     def inputs(self) -> tuple[str, ...]:
@@ -143,56 +150,63 @@ class OperationRegistry:
         self._ops.pop(name, None)
 
 
-#: The process-wide registry used by the grammar, the executors and the compiler.
+#: The process-wide catalogue used by the grammar, the executors and the compiler.
 REGISTRY = OperationRegistry()
 
 
-def register_operation(
-    name: str,
-    *,
-    inputs: list[str] | tuple[str, ...],
-    output: str,
-    value: str | None = None,
-    family: str | None = None,
-    structural: bool = False,
-    replace: bool = False,
-    registry: OperationRegistry | None = None,
-) -> Callable[[Callable], Callable]:
-    """Decorator: register ``fn(world, *inputs[, value])`` as (an overload of) operation ``name``.
+def declare(name: str, inputs: Sequence[str], output: str, doc: str, *, value: str | None = None,
+            family: str, module: str = "po3d_ppl.catalogue.builtin", replace: bool = False,
+            registry: OperationRegistry | None = None) -> Operation:
+    """Declare (an overload of) operation ``name``; implementations are attached later by name."""
+    op = Operation(name, Signature(tuple(inputs), output, value), inspect.cleandoc(doc), family, module)
+    return (registry or REGISTRY).register(op, replace=replace)
 
-    The docstring of ``fn`` becomes the operation's documentation.
-    """
 
+def _attach(kind: str, name: str, inputs: Sequence[str] | None, registry: OperationRegistry | None):
     def decorate(fn: Callable) -> Callable:
-        module = getattr(fn, "__module__", "") or ""
-        fam = family or (module.rsplit(".", 1)[-1] if module.startswith("po3d_ppl.") else module)
-        op = Operation(
-            name=name,
-            signature=Signature(tuple(inputs), output, value),
-            world_fn=fn,
-            doc=inspect.cleandoc(fn.__doc__ or ""),
-            family=fam,
-            structural=structural,
-            module=module,
-        )
-        (registry or REGISTRY).register(op, replace=replace)
+        matched = [op for op in (registry or REGISTRY).overloads(name)
+                   if inputs is None or op.signature.inputs == tuple(inputs)]
+        if not matched:
+            raise RegistryError(f"operation {name!r} has no overload with inputs {list(inputs or ())}")
+        for op in matched:
+            setattr(op, kind, fn)
         return fn
 
     return decorate
 
 
-def register_reference(name: str, inputs: tuple[str, ...] | list[str] | None = None,
+def register_world(name: str, inputs: Sequence[str] | None = None,
+                   registry: OperationRegistry | None = None) -> Callable[[Callable], Callable]:
+    """Decorator: attach a latent-world implementation ``fn(world, *inputs[, value])`` to a declared operation.
+
+    ``inputs`` selects one overload; by default the implementation serves every overload of the name.
+    """
+    return _attach("world_fn", name, inputs, registry)
+
+
+def register_reference(name: str, inputs: Sequence[str] | None = None,
                        registry: OperationRegistry | None = None) -> Callable[[Callable], Callable]:
     """Decorator: attach a ground-truth implementation ``fn(scene_context, *inputs[, value])`` to ``name``.
 
     ``inputs`` selects one overload; by default the implementation serves every overload of the name.
     """
+    return _attach("reference_fn", name, inputs, registry)
+
+
+def register_operation(name: str, *, inputs: Sequence[str], output: str, value: str | None = None,
+                       family: str | None = None, replace: bool = False,
+                       registry: OperationRegistry | None = None) -> Callable[[Callable], Callable]:
+    """Decorator: declare operation ``name`` and attach ``fn(world, *inputs[, value])`` as its latent-world
+    implementation, in one step (the way to add an operation from user code).
+
+    The docstring of ``fn`` becomes the operation's documentation; ``family`` defaults to ``fn``'s module.
+    """
 
     def decorate(fn: Callable) -> Callable:
-        reg = registry or REGISTRY
-        for op in reg.overloads(name):
-            if inputs is None or op.signature.inputs == tuple(inputs):
-                op.reference_fn = fn
+        module = getattr(fn, "__module__", "") or ""
+        op = declare(name, inputs, output, fn.__doc__ or "", value=value, family=family or module, module=module,
+                     replace=replace, registry=registry)
+        op.world_fn = fn
         return fn
 
     return decorate
