@@ -33,9 +33,8 @@ def main() -> None:
     try:  # the simulated sensor's home after the architecture refactor
         from po3d_ppl.perception import simulated_evidence
     except ImportError:
-        from po3d_ppl.reasoning import SceneEvidence
 
-        simulated_evidence = SceneEvidence.from_scene
+        simulated_evidence = simulated_evidence
 
     records = []
     for index in range(args.scenes):

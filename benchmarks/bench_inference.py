@@ -37,8 +37,9 @@ def main() -> None:
     import torch
 
     torch.set_num_threads(args.threads)
+    from po3d_ppl.perception import simulated_evidence
     from po3d_ppl.questions.dataset import BuildConfig, build_dataset, load_dataset
-    from po3d_ppl.reasoning import SceneEvidence, SceneReasoner
+    from po3d_ppl.reasoning import SceneReasoner
 
     root = args.data or tempfile.mkdtemp(prefix="bench_inference_")
     if not os.path.exists(os.path.join(root, "manifest.json")):
@@ -49,7 +50,7 @@ def main() -> None:
     print(f"{len(questions)} questions on {len(data.public_scenes)} scenes of {args.objects} objects, "
           f"noise {args.noise}, {args.threads} thread(s)")
 
-    warm = SceneReasoner(SceneEvidence.from_scene(data.scene(0)))  # first calls pay one-off initialisation
+    warm = SceneReasoner(simulated_evidence(data.scene(0)))  # first calls pay one-off initialisation
     warm.infer([{k: v for k, v in n.items() if k != "_output"} for n in questions[0][1]["program"]], "exact")
     reasoners, tables = {}, []
     times: dict[str, list[float]] = defaultdict(list)
@@ -59,7 +60,7 @@ def main() -> None:
     for k, (name, q) in enumerate(questions):
         index = q["image_index"]
         if index not in reasoners:
-            reasoners[index] = SceneReasoner(SceneEvidence.from_scene(data.scene(index), noise=args.noise,
+            reasoners[index] = SceneReasoner(simulated_evidence(data.scene(index), noise=args.noise,
                                                                       seed=index))
             start = time.perf_counter()
             reasoners[index].posteriors

@@ -38,7 +38,7 @@ def main() -> None:
 
     qp = QuestionParser.load(args.model_dir)
     if args.data is not None:
-        from po3d_ppl.language.seq2seq.data import load_examples
+        from po3d_ppl.questions.parser_examples import load_examples
 
         examples = load_examples(args.data, args.split)
     else:

@@ -21,8 +21,8 @@ def torch_one_thread():
 def builtin_registry_copy():
     """A fresh operation registry holding the built-in operations, for a test to register its own operations in
     without touching the process-wide registry."""
-    from po3d_ppl.language.typecheck import default_registry
     from po3d_ppl.catalogue import OperationRegistry
+    from po3d_ppl.language.typecheck import default_registry
 
     registry = OperationRegistry()
     for op in default_registry():

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from hypothesis import strategies as st
 
+from po3d_ppl.catalogue import Operation, OperationRegistry, value_vocabulary
 from po3d_ppl.language.ast import Node, Program
 from po3d_ppl.language.typecheck import default_registry
-from po3d_ppl.catalogue import Operation, OperationRegistry, value_vocabulary
 
 
 def _min_depth(registry: OperationRegistry) -> dict[str, int]:

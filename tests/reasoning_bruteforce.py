@@ -17,10 +17,11 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from po3d_ppl.questions.executor import execute
-from po3d_ppl.reasoning.evidence import CERTAIN, ScenePriors, SceneEvidence
-from po3d_ppl.reasoning.latent_scene import scene_from_assignment
 from po3d_ppl import ontology
+from po3d_ppl.evidence import CERTAIN, SceneEvidence, ScenePriors
+from po3d_ppl.perception import simulated_evidence
+from po3d_ppl.questions.executor import execute
+from po3d_ppl.reasoning.latent_scene import scene_from_assignment
 from po3d_ppl.world.scene import Scene
 
 S = len(ontology.SUBTYPES)
@@ -30,7 +31,7 @@ def sparse_random_evidence(scene: Scene, rng: np.random.Generator, num_uncertain
     """Certain evidence for ``scene`` with ``num_uncertain`` randomly chosen latents made uncertain between their
     true value and one random alternative (random log-likelihoods). Part slots of every subtype hypothesis are
     certain (visible, plain, not occluded) unless chosen."""
-    ev = SceneEvidence.from_scene(scene)
+    ev = simulated_evidence(scene)
     n = ev.num_objects
     fields = {name: getattr(ev, name).clone() for name in (
         "exist_logodds", "subtype_loglik", "color_loglik", "material_loglik", "size_loglik", "pose_loglik",

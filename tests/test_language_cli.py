@@ -11,7 +11,6 @@ from typer.testing import CliRunner
 from po3d_ppl.cli import app
 from po3d_ppl.language import parse_program, program_to_json
 
-
 pytestmark = pytest.mark.usefixtures("torch_one_thread")
 
 

@@ -9,13 +9,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from language_strategies import programs
 
+from po3d_ppl import ontology
+from po3d_ppl.catalogue import ALL_TYPES, register_operation
 from po3d_ppl.language import check_program, program_to_tokens
 from po3d_ppl.language.seq2seq.constraints import TypeAutomaton
 from po3d_ppl.language.seq2seq.data import canonical_targets
 from po3d_ppl.language.seq2seq.vocab import TargetVocabulary
 from po3d_ppl.language.typecheck import default_registry
-from po3d_ppl.catalogue import ALL_TYPES, register_operation
-from po3d_ppl import ontology
 
 ROOTS = ("Bool", "Integer", "Color", "Material", "Size", "Shape", "Partname", "Direction")
 

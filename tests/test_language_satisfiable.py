@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
+from po3d_ppl.catalogue import register_operation
 from po3d_ppl.language import check_program, parse_program
 from po3d_ppl.language.satisfiable import unsatisfiable_node
-from po3d_ppl.catalogue import register_operation
 
 
 def _analyse(text: str, registry=None):

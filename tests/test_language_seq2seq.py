@@ -10,6 +10,7 @@ import pytest
 import torch
 from language_pairs import pair_examples
 
+from po3d_ppl import ontology
 from po3d_ppl.errors import InputError, ModelFileError
 from po3d_ppl.language import QuestionParser, check_program, parse_program, program_to_json
 from po3d_ppl.language.seq2seq.data import Example, canonical_targets, examples_from_records
@@ -19,7 +20,6 @@ from po3d_ppl.language.seq2seq.train import TrainConfig, evaluate, train_parser
 from po3d_ppl.language.seq2seq.vocab import tokenize
 from po3d_ppl.language.typecheck import default_registry
 from po3d_ppl.model_store import model_files, write_entry
-from po3d_ppl import ontology
 
 CONFIG = TrainConfig(seed=3, epochs=60, batch_size=8, lr=1e-2, dropout=0.0, word_dropout=0.0)
 

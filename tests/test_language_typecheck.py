@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from po3d_ppl.catalogue import register_operation
 from po3d_ppl.errors import UnknownNameError
 from po3d_ppl.language import (
     ProgramArityError,
@@ -14,7 +15,6 @@ from po3d_ppl.language import (
     program_from_tokens,
     program_to_text,
 )
-from po3d_ppl.catalogue import register_operation
 
 
 def test_types_of_every_node_and_overload_resolution():

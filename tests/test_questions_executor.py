@@ -6,14 +6,14 @@ import dataclasses
 
 import pytest
 
+from po3d_ppl import ontology
+from po3d_ppl.catalogue import REGISTRY
 from po3d_ppl.errors import InputError, Po3dError, SceneFormatError, UnknownNameError
 from po3d_ppl.language import ProgramArityError, ProgramStructureError, ProgramTypeError, ProgramValueError
 from po3d_ppl.questions.context import SceneContext
 from po3d_ppl.questions.executor import execute
 from po3d_ppl.questions.reference import missing_references
 from po3d_ppl.questions.toy_scenes import toy_object, toy_scene
-from po3d_ppl.catalogue import REGISTRY
-from po3d_ppl import ontology
 from po3d_ppl.world.scene import EntityAnnotation, Occlusion
 
 

@@ -6,6 +6,8 @@ from collections import Counter
 
 import pytest
 
+from po3d_ppl import ontology
+from po3d_ppl.catalogue import REGISTRY
 from po3d_ppl.questions.balance import AnswerBalancer
 from po3d_ppl.questions.executor import execute
 from po3d_ppl.questions.generator import Candidate, SceneQuestionGenerator
@@ -14,8 +16,6 @@ from po3d_ppl.questions.reference import InvalidStep
 from po3d_ppl.questions.scene_questions import generate_questions
 from po3d_ppl.questions.template_format import load_template_file, template_files
 from po3d_ppl.questions.toy_scenes import random_toy_scene, toy_object, toy_scene
-from po3d_ppl.catalogue import REGISTRY
-from po3d_ppl import ontology
 
 ALL_FAMILIES = [(f, t.index) for f in template_files() for t in load_template_file(f)]
 FILTERS = ("filter_pose", "filter_size", "filter_color", "filter_material", "filter_shape", "partfilter_size",

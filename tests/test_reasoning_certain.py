@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import pytest
 
+from po3d_ppl.perception import simulated_evidence
 from po3d_ppl.questions.dataset import BuildConfig, build_dataset, load_dataset
 from po3d_ppl.questions.executor import execute
-from po3d_ppl.reasoning import SceneEvidence, SceneReasoner
+from po3d_ppl.reasoning import SceneReasoner
 
 SCENES = 72
 
@@ -34,7 +35,7 @@ def test_exact_equals_the_reference_executor_on_every_question(dataset):
     checked = 0
     for index, questions in sorted(by_image.items()):
         scene = data.scene(index)
-        reasoner = SceneReasoner(SceneEvidence.from_scene(scene))
+        reasoner = SceneReasoner(simulated_evidence(scene))
         for q in questions:
             program = _program(q)
             reference = execute(scene, program)
@@ -51,7 +52,7 @@ def test_baselines_agree_with_the_reference_under_certainty(dataset):
     data, by_image = dataset
     for index in sorted(by_image)[:6]:
         scene = data.scene(index)
-        reasoner = SceneReasoner(SceneEvidence.from_scene(scene))
+        reasoner = SceneReasoner(simulated_evidence(scene))
         for q in by_image[index]:
             answer = execute(scene, _program(q)).answer
             for method in ("thresholded", "soft", "sampling"):

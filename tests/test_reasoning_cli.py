@@ -50,9 +50,10 @@ def test_noisy_evidence_and_sampling(scene_file, tmp_path):
     ([], "give exactly one of a question or --program"),
 ])
 def test_bad_input_is_one_line_with_exit_code_2(scene_file, args, message):
-    from po3d_ppl.cli import main  # noqa: F401  (errors are turned into exit code 2 by main)
     import subprocess
     import sys
+
+    from po3d_ppl.cli import main  # noqa: F401  (errors are turned into exit code 2 by main)
 
     proc = subprocess.run([sys.executable, "-m", "po3d_ppl", "answer", "--scene", str(scene_file), *args],
                           capture_output=True, text=True)

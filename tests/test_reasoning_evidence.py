@@ -7,17 +7,17 @@ import dataclasses
 
 import numpy as np
 import pyro
-import pyro.distributions as dist
 import pytest
 import torch
 
-from po3d_ppl.errors import InputError
-from po3d_ppl.questions.toy_scenes import random_toy_scene, toy_object, toy_scene
-from po3d_ppl.reasoning import ScenePriors, SceneEvidence
-from po3d_ppl.reasoning.evidence import EvidenceError, style_index
-from po3d_ppl.reasoning.posterior import CoupledModelError, site_posteriors
-from po3d_ppl.reasoning import scene_model as scene_model_module
 from po3d_ppl import ontology
+from po3d_ppl.errors import InputError
+from po3d_ppl.evidence import EvidenceError, style_index
+from po3d_ppl.perception import simulated_evidence
+from po3d_ppl.questions.toy_scenes import random_toy_scene, toy_object, toy_scene
+from po3d_ppl.reasoning import SceneEvidence, ScenePriors
+from po3d_ppl.reasoning import scene_model as scene_model_module
+from po3d_ppl.reasoning.posterior import CoupledModelError, site_posteriors
 
 
 @pytest.fixture(scope="module")
@@ -30,7 +30,7 @@ def scene():
 
 
 def test_certain_evidence_gives_certain_posteriors(scene):
-    post = site_posteriors(SceneEvidence.from_scene(scene))
+    post = site_posteriors(simulated_evidence(scene))
     assert post["subtype"].argmax(-1).tolist() == [ontology.SUBTYPES.index("suv"), ontology.SUBTYPES.index("jet")]
     assert post["color"][0, ontology.COLORS.index("red")] == 1.0
     assert post["occludes"][1, 0, 1] == 1.0 and post["occludes"][0, 1, 1] == 0.0  # jet occluded by the suv
@@ -51,7 +51,7 @@ def test_noise_model_is_calibrated():
     confidences, hits = [], []
     for seed in range(60):
         scene = random_toy_scene(seed, num_objects=(6, 6))
-        post = site_posteriors(SceneEvidence.from_scene(scene, noise=0.3, seed=seed))
+        post = site_posteriors(simulated_evidence(scene, noise=0.3, seed=seed))
         truth = torch.tensor([ontology.COLORS.index(o.color) for o in scene.objects])
         conf, guess = post["color"].max(-1)
         confidences += conf.tolist()
@@ -61,14 +61,14 @@ def test_noise_model_is_calibrated():
 
 
 def test_same_seed_same_noise_and_different_seed_differs(scene):
-    a = SceneEvidence.from_scene(scene, noise=0.2, seed=3)
-    b = SceneEvidence.from_scene(scene, noise=0.2, seed=3)
-    c = SceneEvidence.from_scene(scene, noise=0.2, seed=4)
+    a = simulated_evidence(scene, noise=0.2, seed=3)
+    b = simulated_evidence(scene, noise=0.2, seed=3)
+    c = simulated_evidence(scene, noise=0.2, seed=4)
     assert torch.equal(a.pose_support, b.pose_support) and not torch.equal(a.pose_support, c.pose_support)
 
 
 def test_wrong_shapes_and_values_give_typed_errors(scene):
-    ev = SceneEvidence.from_scene(scene)
+    ev = simulated_evidence(scene)
     fields = {f.name: getattr(ev, f.name) for f in dataclasses.fields(ev)}
     with pytest.raises(EvidenceError, match=r"color_loglik: expected shape \[2, 8\], got \[2, 7\]"):
         SceneEvidence(**{**fields, "color_loglik": torch.zeros(2, 7, dtype=torch.float64)})
@@ -77,13 +77,13 @@ def test_wrong_shapes_and_values_give_typed_errors(scene):
     with pytest.raises(EvidenceError, match="directions: missing"):
         SceneEvidence(**{**fields, "directions": {"left": torch.zeros(3)}})
     with pytest.raises(InputError, match="noise"):
-        SceneEvidence.from_scene(scene, noise=1.5)
+        simulated_evidence(scene, noise=1.5)
     with pytest.raises(InputError, match="priors.exists"):
         ScenePriors(exists=1.0)
 
 
 def test_evidence_moves_between_devices(scene):
-    ev = SceneEvidence.from_scene(scene).to("cpu")
+    ev = simulated_evidence(scene).to("cpu")
     assert ev.subtype_loglik.device.type == "cpu" and ev.num_objects == 2
 
 
@@ -99,15 +99,15 @@ def test_a_coupled_scene_model_is_refused_by_the_per_site_posteriors(scene, monk
 
     monkeypatch.setattr("po3d_ppl.reasoning.posterior.scene_model", coupled)
     with pytest.raises(CoupledModelError, match="couples latents"):
-        site_posteriors(SceneEvidence.from_scene(scene))
+        site_posteriors(simulated_evidence(scene))
 
 
 def test_priors_matter_only_under_uncertainty(scene):
-    ev = SceneEvidence.from_scene(scene, noise=0.3, seed=1)
+    ev = simulated_evidence(scene, noise=0.3, seed=1)
     low = site_posteriors(ev, ScenePriors(exists=0.1))["exists"][:, 1]
     high = site_posteriors(ev, ScenePriors(exists=0.9))["exists"][:, 1]
     assert (high > low).all()
-    certain = SceneEvidence.from_scene(scene)
+    certain = simulated_evidence(scene)
     assert torch.equal(site_posteriors(certain, ScenePriors(exists=0.1))["exists"],
                        site_posteriors(certain, ScenePriors(exists=0.9))["exists"])
 
@@ -117,7 +117,7 @@ def test_a_correct_reading_of_a_recoloured_part_is_believed(scene, noise):
     """A sensor that reads the hood as visible and blue-rubber, and is wrong 1 time in 1/noise, leaves little doubt.
     (A model that scored 'hidden' as explaining every attribute reading put half the mass on 'hidden' here.)"""
     suv, hood = ontology.SUBTYPES.index("suv"), ontology.PARTS["suv"].index("hood")
-    ev = SceneEvidence.from_scene(scene)
+    ev = simulated_evidence(scene)
     styles = ev.part_style_loglik.shape[-1]
     ev.part_visible_logodds[0, suv, hood] = np.log((1 - noise) / noise)
     ev.part_style_loglik[0, suv, hood] = np.log(noise / (styles - 1))
@@ -131,7 +131,7 @@ def test_evidence_without_proposals_is_a_typed_refusal():
     from po3d_ppl.reasoning import SceneReasoner
     from po3d_ppl.reasoning.scene_model import EmptyEvidenceError
 
-    reasoner = SceneReasoner(SceneEvidence.from_scene(toy_scene([])))
+    reasoner = SceneReasoner(simulated_evidence(toy_scene([])))
     for method in ("exact", "sampling"):
         with pytest.raises(EmptyEvidenceError, match="no object proposals"):
             reasoner.infer("count(scene())", method=method)

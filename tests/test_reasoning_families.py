@@ -6,12 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from reasoning_bruteforce import brute_force, sparse_random_evidence
 
 from po3d_ppl.questions.generator import SceneQuestionGenerator
 from po3d_ppl.questions.template_format import load_template_file, template_files
 from po3d_ppl.questions.toy_scenes import random_toy_scene
 from po3d_ppl.reasoning import SceneReasoner
-from reasoning_bruteforce import brute_force, sparse_random_evidence
 
 FAMILIES = [(f, t.index) for f in template_files() for t in load_template_file(f)]
 

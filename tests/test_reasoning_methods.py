@@ -6,20 +6,21 @@ import importlib.util
 from pathlib import Path
 
 import numpy as np
-import pytest
 import pyro
 import pyro.poutine as poutine
+import pytest
 import torch
+from reasoning_bruteforce import sparse_random_evidence
 
+from po3d_ppl.catalogue import REGISTRY
 from po3d_ppl.errors import UnknownNameError
 from po3d_ppl.language import ProgramTypeError, check_program, parse_program
+from po3d_ppl.perception import simulated_evidence
 from po3d_ppl.questions.executor import execute
 from po3d_ppl.questions.toy_scenes import toy_object, toy_scene
-from po3d_ppl.reasoning import AnswerDistribution, SceneEvidence, SceneReasoner, compile_program, infer
+from po3d_ppl.reasoning import AnswerDistribution, SceneReasoner, compile_program, infer
 from po3d_ppl.reasoning.inference import exact as exact_module
-from po3d_ppl.catalogue import REGISTRY
 from po3d_ppl.reasoning.values import INVALID
-from reasoning_bruteforce import sparse_random_evidence
 
 DOCS_EXAMPLE = Path(__file__).resolve().parents[1] / "docs" / "examples" / "height_depth_ops.py"
 
@@ -73,7 +74,7 @@ def test_dense_equals_exact_and_sampling_is_close(scene):
 
 
 def test_auto_falls_back_to_sampling_when_exact_is_too_costly(scene, monkeypatch):
-    reasoner = SceneReasoner(SceneEvidence.from_scene(scene, noise=0.1, seed=1))
+    reasoner = SceneReasoner(simulated_evidence(scene, noise=0.1, seed=1))
     text = PROGRAMS[2]
     assert reasoner.infer(text, "auto").method == "exact"
     monkeypatch.setattr(exact_module, "MAX_ELEMENTS", 10)
@@ -85,24 +86,24 @@ def test_auto_falls_back_to_sampling_when_exact_is_too_costly(scene, monkeypatch
 
 def test_noise_spreads_the_answer_and_certainty_concentrates_it(scene):
     text = "query_color(unique(filter_shape[aeroplane](scene())))"
-    certain = infer(text, SceneEvidence.from_scene(scene), "exact")
+    certain = infer(text, simulated_evidence(scene), "exact")
     assert certain.probs == {"blue": 1.0} and certain.entropy == 0.0 and certain.top == "blue"
-    noisy = infer(text, SceneEvidence.from_scene(scene, noise=0.2, seed=4), "exact")
+    noisy = infer(text, simulated_evidence(scene, noise=0.2, seed=4), "exact")
     assert noisy.entropy > 0.3 and sum(noisy.probs.values()) + noisy.invalid == pytest.approx(1.0)
 
 
 def test_invalid_executions_are_reported_not_dropped(scene):
     # two red objects: "the red object" is ambiguous, so the execution is invalid, with certainty
-    dist = infer("query_shape(unique(filter_color[red](scene())))", SceneEvidence.from_scene(scene), "exact")
+    dist = infer("query_shape(unique(filter_color[red](scene())))", simulated_evidence(scene), "exact")
     assert dist.invalid == pytest.approx(1.0) and dist.probs == {} and dist.top is None
     # a pose query of an object facing a dead-zone direction is invalid too
     dead = toy_scene([toy_object("suv", "red", pose_degree=45.0)])
-    assert infer("query_pose(unique(scene()))", SceneEvidence.from_scene(dead)).invalid == pytest.approx(1.0)
+    assert infer("query_pose(unique(scene()))", simulated_evidence(dead)).invalid == pytest.approx(1.0)
 
 
 def test_compiled_program_is_a_pyro_model_with_an_answer_site(scene):
     compiled = compile_program("query_color(unique(filter_shape[jet](scene())))")
-    evidence = SceneEvidence.from_scene(scene)
+    evidence = simulated_evidence(scene)
     with pyro.plate("samples", 64, dim=-5):
         trace = poutine.trace(compiled.model).get_trace(evidence)
     answers = trace.nodes["answer"]["value"]
@@ -144,7 +145,7 @@ def test_user_operations_from_the_docs_example_work_everywhere(scene):
 
 
 def test_bad_input_gives_typed_errors(scene):
-    reasoner = SceneReasoner(SceneEvidence.from_scene(scene))
+    reasoner = SceneReasoner(simulated_evidence(scene))
     with pytest.raises(UnknownNameError, match="inference method 'exactly'; did you mean 'exact'"):
         reasoner.infer("count(scene())", "exactly")
     with pytest.raises(ProgramTypeError):
@@ -172,14 +173,14 @@ def test_typed_programs_from_every_front_end_compile_alike(scene):
     typed = check_program(parse_program(text))
     json_program = [{"type": "scene", "inputs": []}, {"type": "filter_shape", "inputs": [0], "value_inputs": ["jet"]},
                     {"type": "unique", "inputs": [1]}, {"type": "query_color", "inputs": [2]}]
-    evidence = SceneEvidence.from_scene(scene)
+    evidence = simulated_evidence(scene)
     answers = {infer(p, evidence).top for p in (text, typed, json_program, compile_program(text))}
     assert answers == {"blue"}
 
 
 def test_filter_occluder_is_answered_by_sampling_and_matches_the_reference(scene):
     program = "count(filter_occluder(filter_color[red](scene())))"
-    reasoner = SceneReasoner(SceneEvidence.from_scene(scene))
+    reasoner = SceneReasoner(simulated_evidence(scene))
     with pytest.raises(Exception, match="filter_occluder asks whether"):
         reasoner.infer(program, "exact")
     dist = reasoner.infer(program, "auto", num_samples=256)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from po3d_ppl.errors import UnknownNameError
 from po3d_ppl import ontology
+from po3d_ppl.errors import UnknownNameError
 from po3d_ppl.world.meshes import FINISHES, all_vehicle_meshes, canonical_extents, vehicle_mesh
 from po3d_ppl.world.meshes.assembly import Assembly
 from po3d_ppl.world.meshes.registry import BUILDERS

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from po3d_ppl.cli import main
 from po3d_ppl import ontology
+from po3d_ppl.cli import main
 from po3d_ppl.world.meshes import vehicle_mesh
 from po3d_ppl.world.meshes.export import part_palette
 

@@ -7,8 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from po3d_ppl.errors import InputError
 from po3d_ppl import ontology
+from po3d_ppl.errors import InputError
 from po3d_ppl.world import rle
 from po3d_ppl.world.generate import GenerationError, generate_scene
 from po3d_ppl.world.sampler import ObjectSpec, SceneConfig, intersects, sample_objects

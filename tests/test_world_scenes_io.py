@@ -7,8 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from po3d_ppl.errors import SceneFormatError
 from po3d_ppl import ontology
+from po3d_ppl.errors import SceneFormatError
 from po3d_ppl.world import rle
 from po3d_ppl.world.sampler import make_camera
 from po3d_ppl.world.scene import EntityAnnotation, Occlusion, PartStyle, Scene, SceneObject, compute_relationships

@@ -7,7 +7,8 @@ ground-truth semantics so the question engine's reference executor can run it to
 
     import height_depth_ops  # registers the operations
     from po3d_ppl.reasoning import SceneEvidence, infer
-    infer("query_shape(unique(relate_above(unique(filter_shape[bus](scene())))))", SceneEvidence.from_scene(scene))
+    from po3d_ppl.perception import simulated_evidence
+    infer("query_shape(unique(relate_above(unique(filter_shape[bus](scene())))))", simulated_evidence(scene))
 """
 
 from __future__ import annotations

@@ -14,9 +14,9 @@ from functools import cache
 import lark
 from lark import Transformer, v_args
 
+from po3d_ppl.catalogue import OperationRegistry
 from po3d_ppl.language.ast import Node, Program, Span
 from po3d_ppl.language.errors import ProgramStructureError, ProgramSyntaxError, UnknownProgramNameError
-from po3d_ppl.catalogue import OperationRegistry
 from po3d_ppl.resources import resource_dir
 
 #: How terminals are described in "expected ..." messages.

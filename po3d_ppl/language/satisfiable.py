@@ -15,8 +15,8 @@ from __future__ import annotations
 
 from functools import cache
 
-from po3d_ppl.language.ast import Program
 from po3d_ppl import ontology
+from po3d_ppl.language.ast import Program
 
 _OBJECT_TYPES = ("ObjectSet", "Object")
 _PART_TYPES = ("PartSet", "Part")

@@ -15,9 +15,9 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from po3d_ppl.catalogue import OperationRegistry, RegistryError
 from po3d_ppl.language.ast import Node, Program
 from po3d_ppl.language.errors import ProgramStructureError, UnknownProgramNameError
-from po3d_ppl.catalogue import OperationRegistry, RegistryError
 
 
 def format_token(function: str, value: str | None) -> str:

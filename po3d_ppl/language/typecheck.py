@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from po3d_ppl.catalogue import REGISTRY, Operation, OperationRegistry, value_vocabulary
 from po3d_ppl.language.ast import Node, Program
 from po3d_ppl.language.errors import (
     ProgramArityError,
@@ -16,7 +17,6 @@ from po3d_ppl.language.errors import (
     ProgramValueError,
     UnknownProgramNameError,
 )
-from po3d_ppl.catalogue import REGISTRY, Operation, OperationRegistry, value_vocabulary
 
 
 def default_registry() -> OperationRegistry:

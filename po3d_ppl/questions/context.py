@@ -16,8 +16,8 @@ from functools import cached_property
 
 import numpy as np
 
-from po3d_ppl.errors import SceneFormatError
 from po3d_ppl import ontology
+from po3d_ppl.errors import SceneFormatError
 from po3d_ppl.world.scene import RELATION_EPS, Scene, SceneObject
 
 Part = tuple[int, int]

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from po3d_ppl.language import as_typed_program
 from po3d_ppl.questions import reference
 from po3d_ppl.questions.context import SceneContext
-from po3d_ppl.language import as_typed_program
 from po3d_ppl.questions.program import to_public_output
 from po3d_ppl.questions.reference import InvalidStep
 from po3d_ppl.world.scene import Scene

@@ -15,8 +15,8 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from po3d_ppl.questions.context import Part, SceneContext
 from po3d_ppl import ontology
+from po3d_ppl.questions.context import Part, SceneContext
 
 Key = tuple[str | None, ...]
 

@@ -32,15 +32,14 @@ from functools import cache
 
 import numpy as np
 
+from po3d_ppl import ontology
+from po3d_ppl.catalogue import REGISTRY, Operation, value_vocabulary
 from po3d_ppl.questions.context import SceneContext
 from po3d_ppl.questions.filter_index import FilterIndex, Key
 from po3d_ppl.questions.program import to_public_output
 from po3d_ppl.questions.reference import InvalidStep
-from po3d_ppl.questions.template_format import (FILTER_KINDS, OBJECT_SLOTS, PART_SLOTS, Template,
-                                                load_template_file)
+from po3d_ppl.questions.template_format import FILTER_KINDS, OBJECT_SLOTS, PART_SLOTS, Template, load_template_file
 from po3d_ppl.questions.verbalise import fill_text, verbalise_answer
-from po3d_ppl.catalogue import REGISTRY, Operation, value_vocabulary
-from po3d_ppl import ontology
 from po3d_ppl.world.scene import Scene
 
 #: Steps after which a following unique/filter key must not identify its referent on its own.

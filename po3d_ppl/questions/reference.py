@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import operator
 
-from po3d_ppl.questions.context import Part, SceneContext
-from po3d_ppl.catalogue import REGISTRY, register_reference
 from po3d_ppl import ontology
+from po3d_ppl.catalogue import REGISTRY, register_reference
+from po3d_ppl.questions.context import Part, SceneContext
 
 
 class InvalidStep(Exception):

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 from functools import cache
 from importlib import resources
 
+from po3d_ppl.catalogue import value_vocabulary
 from po3d_ppl.errors import InputError
 from po3d_ppl.language.typecheck import default_registry
-from po3d_ppl.catalogue import value_vocabulary
 
 #: Template-only node types, by what they consume and produce: (input type, emitted aggregation or None).
 FILTER_KINDS: dict[str, tuple[str, str | None]] = {

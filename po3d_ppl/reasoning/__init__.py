@@ -13,8 +13,8 @@ Public surface (imported lazily so that the language tools, which only need the 
 from po3d_ppl.catalogue import REGISTRY, register_operation, register_reference, register_world
 
 _LAZY = {
-    "SceneEvidence": "po3d_ppl.reasoning.evidence",
-    "ScenePriors": "po3d_ppl.reasoning.evidence",
+    "SceneEvidence": "po3d_ppl.evidence",
+    "ScenePriors": "po3d_ppl.evidence",
     "scene_model": "po3d_ppl.reasoning.scene_model",
     "compile_program": "po3d_ppl.reasoning.compiler",
     "CompiledProgram": "po3d_ppl.reasoning.compiler",

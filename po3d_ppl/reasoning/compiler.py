@@ -15,8 +15,8 @@ import pyro
 import torch
 
 from po3d_ppl.errors import InputError
+from po3d_ppl.evidence import SceneEvidence, ScenePriors
 from po3d_ppl.reasoning import values
-from po3d_ppl.reasoning.evidence import ScenePriors, SceneEvidence
 from po3d_ppl.reasoning.execution import run_program
 from po3d_ppl.reasoning.inference.concrete_world import ConcreteWorld, object_centric
 from po3d_ppl.reasoning.posterior import element_layout

@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from po3d_ppl.reasoning.evidence import SceneEvidence
+from po3d_ppl import ontology
+from po3d_ppl.evidence import SceneEvidence
 from po3d_ppl.reasoning.posterior import SitePosteriors
 from po3d_ppl.reasoning.scene_model import OBJECT_SITES
-from po3d_ppl import ontology
 from po3d_ppl.world.scene import EntityAnnotation, Occlusion, PartStyle, Scene, SceneObject, compute_relationships
 
 

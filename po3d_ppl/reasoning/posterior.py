@@ -16,7 +16,7 @@ import torch
 from pyro.infer import config_enumerate
 
 from po3d_ppl.errors import Po3dError
-from po3d_ppl.reasoning.evidence import DTYPE, ScenePriors, SceneEvidence
+from po3d_ppl.evidence import DTYPE, SceneEvidence, ScenePriors
 from po3d_ppl.reasoning.scene_model import FIRST_ENUM_DIM, SITES, scene_model
 
 #: Axis orders of the tables returned, per site plate signature (values always last).

@@ -26,9 +26,9 @@ import pyro.distributions as dist
 import torch
 from pyro.ops.indexing import Vindex
 
-from po3d_ppl.errors import Po3dError
-from po3d_ppl.reasoning.evidence import DTYPE, NUM_PART_STATES, ScenePriors, SceneEvidence
 from po3d_ppl import ontology
+from po3d_ppl.errors import Po3dError
+from po3d_ppl.evidence import DTYPE, NUM_PART_STATES, SceneEvidence, ScenePriors
 
 PARTS_DIM, OBJECTS_DIM, MODELS_DIM, OCCLUDERS_DIM = -1, -2, -3, -4
 #: First dimension free for enumeration (left of every plate).
@@ -82,7 +82,7 @@ class EmptyEvidenceError(Po3dError, NotImplementedError):
 
 def scene_model(evidence: SceneEvidence, priors: ScenePriors = ScenePriors()) -> dict[str, torch.Tensor]:
     """Sample a latent scene conditioned on ``evidence``. Returns the latent values by site name."""
-    n, k = evidence.num_objects, evidence.num_pose_bins
+    n = evidence.num_objects
     if n == 0:
         raise EmptyEvidenceError("the evidence has no object proposals; reasoning over an empty scene is not "
                                  "implemented yet (every program needs at least one proposal)")

@@ -24,8 +24,8 @@ from functools import cached_property
 
 import torch
 
-from po3d_ppl.reasoning import values
 from po3d_ppl import ontology
+from po3d_ppl.reasoning import values
 from po3d_ppl.world.scene import RELATION_EPS
 
 

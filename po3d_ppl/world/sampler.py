@@ -21,8 +21,8 @@ from numbers import Integral, Real
 
 import numpy as np
 
-from po3d_ppl.errors import InputError
 from po3d_ppl import ontology
+from po3d_ppl.errors import InputError
 from po3d_ppl.world.scene import DECIMALS, MATRIX_DECIMALS, Camera, PartStyle
 
 #: CLEVR's base camera (the Blender default camera of ``base_scene.blend``), looking at the origin.

@@ -35,8 +35,8 @@ from typing import Any
 
 import numpy as np
 
-from po3d_ppl.errors import InputError, SceneFormatError
 from po3d_ppl import ontology
+from po3d_ppl.errors import InputError, SceneFormatError
 from po3d_ppl.world import rle
 from po3d_ppl.world.sampler import clevr_intrinsics
 from po3d_ppl.world.scene import (

@@ -24,9 +24,9 @@ from math import inf
 
 import numpy as np
 
+from po3d_ppl.catalogue import OperationRegistry, value_vocabulary
 from po3d_ppl.language.seq2seq.vocab import TargetVocabulary
 from po3d_ppl.language.tokens import token_signature
-from po3d_ppl.catalogue import OperationRegistry, value_vocabulary
 
 
 @dataclass(frozen=True)

@@ -12,15 +12,11 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING
 
+from po3d_ppl import ontology
 from po3d_ppl.errors import InputError
 from po3d_ppl.language.ast import Program
 from po3d_ppl.language.json_io import program_from_json
-from po3d_ppl import ontology
-
-if TYPE_CHECKING:
-    from po3d_ppl.questions.dataset import Dataset
 
 
 @dataclass(frozen=True)
@@ -55,31 +51,3 @@ def examples_from_records(records: Iterable[Mapping], source: str) -> list[Examp
         family = f"{Path(template).stem}:{record.get('question_family_index', '?')}"
         out.append(Example(question, canonical_targets(program), source, family))
     return out
-
-
-def open_dataset(data_dir: Path) -> Dataset:
-    """A dataset directory built by ``po3d dataset build``, read once (its splits, questions and manifest)."""
-    from po3d_ppl.questions.dataset import load_dataset
-
-    data_dir = Path(data_dir)
-    if not data_dir.is_dir():
-        raise InputError("--data", f"{data_dir} is not a directory; build one with `po3d dataset build --out DIR`")
-    return load_dataset(data_dir)
-
-
-def split_examples(dataset: Dataset, split: str) -> list[Example]:
-    """Every question of ``split`` in ``dataset``, grouped by question file."""
-    if split not in dataset.splits:
-        raise InputError("--split", f"unknown split {split!r} (known: {', '.join(dataset.splits)})")
-    members = set(dataset.splits[split])
-    examples: list[Example] = []
-    for source, records in dataset.questions.items():
-        examples.extend(examples_from_records((r for r in records if r.get("image_index") in members), source))
-    if not examples:
-        raise InputError("--split", f"no questions for split {split!r} in {dataset.root}")
-    return examples
-
-
-def load_examples(data_dir: Path, split: str) -> list[Example]:
-    """Every question of ``split`` in a dataset built by ``po3d dataset build``, grouped by question file."""
-    return split_examples(open_dataset(data_dir), split)

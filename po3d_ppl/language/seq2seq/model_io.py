@@ -15,6 +15,7 @@ from pathlib import Path
 import torch
 from safetensors.torch import load_file, save_file
 
+from po3d_ppl.catalogue import OperationRegistry
 from po3d_ppl.errors import InputError, ModelFileError
 from po3d_ppl.language.ast import Program
 from po3d_ppl.language.satisfiable import unsatisfiable_node
@@ -25,7 +26,6 @@ from po3d_ppl.language.seq2seq.train import Trained
 from po3d_ppl.language.seq2seq.vocab import TargetVocabulary, WordVocabulary, tokenize
 from po3d_ppl.language.tokens import program_to_tokens
 from po3d_ppl.language.typecheck import check_program, default_registry
-from po3d_ppl.catalogue import OperationRegistry
 
 MODEL_NAME = "question_parser"
 WEIGHTS = f"{MODEL_NAME}.safetensors"

@@ -15,6 +15,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from po3d_ppl.catalogue import OperationRegistry
 from po3d_ppl.errors import InputError
 from po3d_ppl.language.seq2seq.constraints import TypeAutomaton
 from po3d_ppl.language.seq2seq.data import Example
@@ -23,7 +24,6 @@ from po3d_ppl.language.seq2seq.model import ParserConfig, Seq2SeqParser
 from po3d_ppl.language.seq2seq.vocab import TargetVocabulary, WordVocabulary
 from po3d_ppl.language.tokens import program_to_tokens
 from po3d_ppl.language.typecheck import check_program
-from po3d_ppl.catalogue import OperationRegistry
 
 
 @dataclass(frozen=True)

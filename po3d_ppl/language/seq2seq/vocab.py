@@ -17,10 +17,10 @@ import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
+from po3d_ppl import ontology
+from po3d_ppl.catalogue import OperationRegistry, value_vocabulary
 from po3d_ppl.language.ast import Program
 from po3d_ppl.language.tokens import format_token, program_from_tokens, program_to_tokens, split_token
-from po3d_ppl.catalogue import OperationRegistry, value_vocabulary
-from po3d_ppl import ontology
 
 PAD, UNK = "<pad>", "<unk>"
 _WORD = re.compile(r"[a-z0-9]+")

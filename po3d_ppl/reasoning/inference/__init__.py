@@ -19,10 +19,10 @@ from __future__ import annotations
 from functools import cached_property
 
 from po3d_ppl.errors import UnknownNameError
+from po3d_ppl.evidence import SceneEvidence, ScenePriors
 from po3d_ppl.reasoning import values
 from po3d_ppl.reasoning.answer import AnswerDistribution
 from po3d_ppl.reasoning.compiler import CompiledProgram, compile_program
-from po3d_ppl.reasoning.evidence import ScenePriors, SceneEvidence
 from po3d_ppl.reasoning.posterior import SitePosteriors, site_posteriors
 
 METHODS = ("auto", "exact", "sampling", "dense", "generic", "thresholded", "soft")

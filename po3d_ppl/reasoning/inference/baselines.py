@@ -17,13 +17,13 @@ from collections.abc import Callable
 
 import torch
 
+from po3d_ppl import ontology
 from po3d_ppl.errors import Po3dError
+from po3d_ppl.evidence import DTYPE, STATE_COLOR, STATE_MATERIAL, SceneEvidence
 from po3d_ppl.reasoning import values
-from po3d_ppl.reasoning.evidence import DTYPE, STATE_COLOR, STATE_MATERIAL, SceneEvidence
 from po3d_ppl.reasoning.latent_scene import argmax_assignment, scene_from_assignment
 from po3d_ppl.reasoning.posterior import SitePosteriors
 from po3d_ppl.reasoning.world import pose_label_ids, pose_relation_ids
-from po3d_ppl import ontology
 from po3d_ppl.world.scene import RELATION_EPS, Scene
 
 

@@ -21,10 +21,9 @@ from functools import cached_property
 
 import torch
 
+from po3d_ppl.evidence import STATE_COLOR, STATE_MATERIAL
 from po3d_ppl.reasoning import values
-from po3d_ppl.reasoning.evidence import STATE_COLOR, STATE_MATERIAL
 from po3d_ppl.reasoning.world import LatentWorld
-
 
 #: Object-level latents that sources give as they are, ``[*B, N]``.
 OBJECT_LATENTS = ("exists", "subtype", "color", "material", "size", "occluded")

@@ -13,13 +13,13 @@ import math
 
 import torch
 
-from po3d_ppl.reasoning.evidence import DTYPE, SceneEvidence
+from po3d_ppl import ontology
+from po3d_ppl.evidence import DTYPE, SceneEvidence
 from po3d_ppl.reasoning.execution import run_program
 from po3d_ppl.reasoning.inference.concrete_world import OBJECT_LATENTS, ConcreteWorld, object_centric
 from po3d_ppl.reasoning.inference.enum_world import ExactUnsupported
 from po3d_ppl.reasoning.posterior import SitePosteriors
 from po3d_ppl.reasoning.values import INVALID
-from po3d_ppl import ontology
 
 #: Largest number of joint assignments the dense path enumerates.
 MAX_ASSIGNMENTS = 1 << 18

@@ -24,14 +24,14 @@ from dataclasses import dataclass
 
 import torch
 
+from po3d_ppl import ontology
 from po3d_ppl.errors import Po3dError
+from po3d_ppl.evidence import STATE_COLOR, STATE_MATERIAL, SceneEvidence
 from po3d_ppl.reasoning import values
-from po3d_ppl.reasoning.evidence import DTYPE, STATE_COLOR, STATE_MATERIAL, SceneEvidence
 from po3d_ppl.reasoning.inference.sop import Sop
 from po3d_ppl.reasoning.posterior import SitePosteriors
 from po3d_ppl.reasoning.scene_model import OBJECT_SITES
 from po3d_ppl.reasoning.world import LatentWorld
-from po3d_ppl import ontology
 
 
 class ExactUnsupported(Po3dError):

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import torch
 
-from po3d_ppl.reasoning.evidence import DTYPE, SceneEvidence
+from po3d_ppl.evidence import DTYPE, SceneEvidence
 from po3d_ppl.reasoning.execution import run_program
 from po3d_ppl.reasoning.inference.enum_world import Dim, EnumWorld, ExactUnsupported
 from po3d_ppl.reasoning.inference.sop import Sop

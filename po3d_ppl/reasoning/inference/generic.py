@@ -18,7 +18,7 @@ import pyro.distributions as dist
 import torch
 from pyro.infer import TraceEnum_ELBO, config_enumerate
 
-from po3d_ppl.reasoning.evidence import DTYPE, SceneEvidence
+from po3d_ppl.evidence import DTYPE, SceneEvidence
 from po3d_ppl.reasoning.execution import run_program
 from po3d_ppl.reasoning.inference.enum_world import EnumWorld
 from po3d_ppl.reasoning.inference.sop import Sop

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import torch
 
-from po3d_ppl.reasoning.evidence import SceneEvidence
+from po3d_ppl.evidence import SceneEvidence
 from po3d_ppl.reasoning.execution import run_program
 from po3d_ppl.reasoning.inference.concrete_world import OBJECT_LATENTS, ConcreteWorld, pose_degrees
 from po3d_ppl.reasoning.posterior import SitePosteriors

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import operator
 
+from po3d_ppl import ontology
+from po3d_ppl.catalogue import register_world
 from po3d_ppl.reasoning import values
 from po3d_ppl.reasoning.operations._helpers import compare
-from po3d_ppl.catalogue import register_world
-from po3d_ppl import ontology
 
 
 @register_world("scene")

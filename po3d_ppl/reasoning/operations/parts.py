@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from po3d_ppl.reasoning import values
-from po3d_ppl.catalogue import register_world
 from po3d_ppl import ontology
+from po3d_ppl.catalogue import register_world
+from po3d_ppl.reasoning import values
 
 
 @register_world("object2part", inputs=["ObjectSet"])

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 from functools import cache
 
-from po3d_ppl.errors import UnknownNameError
 from po3d_ppl import ontology
+from po3d_ppl.errors import UnknownNameError
 from po3d_ppl.world.meshes import aeroplanes, bicycles, buses, cars, motorbikes  # noqa: F401  (register builders)
 from po3d_ppl.world.meshes.assembly import FINISHES, UNLABELLED, VehicleMesh, canonical_extents
 from po3d_ppl.world.meshes.export import export_glb

@@ -1,7 +1,8 @@
-"""``SceneEvidence``: the contract between perception and reasoning.
+"""``SceneEvidence``: the contract between perception and reasoning, in a module of its own.
 
-Perception (render-and-compare scene parsing) or a ground-truth scene produces, for every object proposal, scores
-that the reasoning engine's Pyro model uses as likelihood factors. Everything is a log-likelihood (or log-odds,
+Both stages import it and neither imports the other: a perception back-end (the render-and-compare parser, or the
+simulated sensor of :mod:`po3d_ppl.perception.simulated`) produces, for every object proposal, scores that the
+reasoning engine's Pyro model uses as likelihood factors. Everything is a log-likelihood (or log-odds,
 for binary variables), never a probability: a proposal's scores say how well each hypothesis explains the image,
 and the model's priors are separate (:class:`ScenePriors`).
 
@@ -13,19 +14,22 @@ Part states (``part_state`` latent, :data:`NUM_PART_STATES` of them): 0 = hidden
 ``2 + 2 * colour + material`` = visible and recoloured (the public ``parts`` field). A part's attribute reading
 (``part_style_loglik``) is scored under every state: a hidden part shows no recolouring, so "hidden" takes the
 plain style's column, never a free likelihood of 1.
+
+Proposals are distinct objects: a back-end must not return two proposals for one object (the real parser
+guarantees it with 3D non-maximum suppression on ground footprints; ``docs/architecture.md`` says why this, rather
+than a mutual-exclusion latent, and how it is measured with :func:`duplicate_pairs`). ``boxes``, ``masks`` and
+``camera`` are carried for overlays and evaluation; reasoning never reads them.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, fields
 
-import numpy as np
 import torch
 
-from po3d_ppl.errors import InputError, Po3dError
 from po3d_ppl import ontology
-from po3d_ppl.world.scene import Scene, SceneObject
+from po3d_ppl.errors import InputError, Po3dError
+from po3d_ppl.world.scene import Camera
 
 #: Log-likelihood gap used for "certain" evidence: exp(-CERTAIN) underflows to exactly 0 in float64.
 CERTAIN = 1.0e4
@@ -108,6 +112,11 @@ class SceneEvidence:
     positions: torch.Tensor  # [N, 3] world coordinates (observed)
     depths: torch.Tensor  # [N] distance along the camera's viewing axis (observed)
     directions: dict[str, torch.Tensor]  # CLEVR's six ground directions
+    #: For overlays and evaluation only: boxes ``[N, 4]`` (x, y, w, h pixels, the public bbox layout), visible
+    #: masks ``[N, H, W]`` bool, and the camera the image was taken with (estimated or known).
+    boxes: torch.Tensor | None = None
+    masks: torch.Tensor | None = None
+    camera: Camera | None = None
 
     def __post_init__(self) -> None:
         self.validate()
@@ -150,6 +159,12 @@ class SceneEvidence:
                 raise EvidenceError(f"{name}: expected a torch tensor of shape {list(shape)}, got {type(value).__name__}")
             if tuple(value.shape) != shape:
                 raise EvidenceError(f"{name}: expected shape {list(shape)}, got {list(value.shape)} (N={n}, K={k})")
+            if value.dtype != DTYPE:
+                raise EvidenceError(f"{name}: expected dtype {DTYPE}, got {value.dtype} (convert with "
+                                    f".to(torch.float64): exact inference needs double precision)")
+            if value.device != self.exist_logodds.device:
+                raise EvidenceError(f"{name}: on {value.device}, but exist_logodds is on {self.exist_logodds.device} "
+                                    "(every table must be on one device; use evidence.to(device))")
             if torch.isnan(value).any():
                 raise EvidenceError(f"{name}: contains NaN")
             if name in ("positions", "depths", "pose_support") and not torch.isfinite(value).all():
@@ -157,6 +172,20 @@ class SceneEvidence:
         missing = {"behind", "front", "left", "right", "above", "below"} - set(self.directions)
         if missing:
             raise EvidenceError(f"directions: missing {sorted(missing)}")
+        self._validate_overlays(n)
+
+    def _validate_overlays(self, n: int) -> None:
+        if self.boxes is not None and (not isinstance(self.boxes, torch.Tensor) or tuple(self.boxes.shape) != (n, 4)):
+            raise EvidenceError(f"boxes: expected a tensor of shape [{n}, 4] (x, y, w, h) or None")
+        if self.masks is not None:
+            if not isinstance(self.masks, torch.Tensor) or self.masks.dim() != 3 or self.masks.shape[0] != n \
+                    or self.masks.dtype != torch.bool:
+                raise EvidenceError(f"masks: expected a bool tensor of shape [{n}, H, W] or None")
+            if self.camera is not None and tuple(self.masks.shape[1:]) != (self.camera.height, self.camera.width):
+                raise EvidenceError(f"masks: {list(self.masks.shape[1:])} pixels, but the camera's image is "
+                                    f"[{self.camera.height}, {self.camera.width}]")
+        if self.camera is not None and not isinstance(self.camera, Camera):
+            raise EvidenceError(f"camera: expected a po3d_ppl.world.Camera or None, got {type(self.camera).__name__}")
 
     def to(self, device: torch.device | str) -> SceneEvidence:
         moved = {f.name: getattr(self, f.name) for f in fields(self)}
@@ -166,114 +195,20 @@ class SceneEvidence:
         moved["directions"] = {k: v.to(device) for k, v in self.directions.items()}
         return SceneEvidence(**moved)
 
-    @classmethod
-    def from_scene(cls, scene: Scene, noise: float = 0.0, seed: int = 0,
-                   pose_bins: int = DEFAULT_POSE_BINS) -> SceneEvidence:
-        """Evidence from a ground-truth scene: certain when ``noise == 0``, else a noisy-sensor study.
 
-        With ``noise = t`` every categorical observation is wrong with probability ``t`` (uniformly), every binary
-        one flipped with probability ``t``, and the azimuth observed with a Gaussian error of ``60 t`` degrees. The
-        log-likelihoods are those of that sensor model, so posteriors are calibrated wherever the priors match the
-        world (docs/reasoning.md lists where they do not yet): the setting for calibration studies of the reasoning.
-        """
-        if not 0.0 <= noise < 1.0:
-            raise InputError("noise", f"must be in [0, 1), got {noise}")
-        if pose_bins < 1:
-            raise InputError("pose_bins", f"must be >= 1, got {pose_bins}")
-        return _EvidenceBuilder(scene, noise, np.random.default_rng(seed), pose_bins).build()
+def duplicate_pairs(evidence: SceneEvidence, min_iou: float = 0.5) -> list[tuple[int, int]]:
+    """Proposal pairs whose boxes overlap by at least ``min_iou``: candidates for one object counted twice.
 
-
-class _EvidenceBuilder:
-    """Turns a ground-truth scene into (noisy) evidence with a symmetric-channel sensor model."""
-
-    def __init__(self, scene: Scene, noise: float, rng: np.random.Generator, pose_bins: int):
-        self.scene, self.noise, self.rng, self.k = scene, noise, rng, pose_bins
-
-    def categorical(self, true_index: int, size: int) -> np.ndarray:
-        if self.noise == 0.0:
-            out = np.full(size, -CERTAIN)
-            out[true_index] = 0.0
-            return out
-        observed = true_index
-        if size > 1 and self.rng.random() < self.noise:
-            observed = int(self.rng.choice([i for i in range(size) if i != true_index]))
-        out = np.full(size, math.log(self.noise / max(size - 1, 1)))
-        out[observed] = math.log(1.0 - self.noise)
-        return out
-
-    def binary(self, truth: bool) -> float:
-        if self.noise == 0.0:
-            return CERTAIN if truth else -CERTAIN
-        observed = truth != (self.rng.random() < self.noise)
-        strength = math.log((1.0 - self.noise) / self.noise)
-        return strength if observed else -strength
-
-    def pose(self, degree: float) -> tuple[np.ndarray, np.ndarray]:
-        grid = np.arange(self.k) * (360.0 / self.k)
-        if self.noise == 0.0:
-            loglik = np.full(self.k, -CERTAIN)
-            loglik[0] = 0.0
-            return (degree + grid) % 360.0, loglik
-        sigma = math.radians(60.0 * self.noise)
-        observed = (degree + math.degrees(self.rng.normal(0.0, sigma))) % 360.0
-        kappa = 1.0 / sigma**2
-        return (observed + grid) % 360.0, kappa * (np.cos(np.radians(grid)) - 1.0)
-
-    def build(self) -> SceneEvidence:
-        objs = self.scene.objects
-        n = len(objs)
-        ev = {
-            "exist_logodds": np.array([self.binary(True) for _ in objs]),
-            "subtype_loglik": np.stack([self.categorical(ontology.SUBTYPES.index(o.subtype), S) for o in objs])
-            if n else np.zeros((0, S)),
-            "color_loglik": np.stack([self.categorical(ontology.COLORS.index(o.color), len(ontology.COLORS))
-                                      for o in objs]) if n else np.zeros((0, len(ontology.COLORS))),
-            "material_loglik": np.stack([self.categorical(ontology.MATERIALS.index(o.material), 2) for o in objs])
-            if n else np.zeros((0, 2)),
-            "size_loglik": np.stack([self.categorical(ontology.SIZES.index(o.size), 2) for o in objs])
-            if n else np.zeros((0, 2)),
-            "occluded_logodds": np.array([self.binary(o.occluded) for o in objs]),
-        }
-        poses = [self.pose(o.pose_degree) for o in objs]
-        ev["pose_support"] = np.stack([p[0] for p in poses]) if n else np.zeros((0, self.k))
-        ev["pose_loglik"] = np.stack([p[1] for p in poses]) if n else np.zeros((0, self.k))
-        ev["occludes_logodds"] = np.array(
-            [[0.0 if i == j else self.binary(j in objs[i].occluded_by) for j in range(n)] for i in range(n)]
-        ).reshape(n, n)
-        vis = np.zeros((n, S, P))
-        style = np.zeros((n, S, P, NUM_STYLES))
-        occ = np.zeros((n, S, P))
-        pocc = np.zeros((n, S, P, n))
-        for i, obj in enumerate(objs):
-            s = ontology.SUBTYPES.index(obj.subtype)
-            for p, raw in enumerate(ontology.PARTS[obj.subtype]):
-                vis[i, s, p] = self.binary(_part_visible(obj, raw))
-                part_style = obj.parts.get(raw)
-                truth = style_index(part_style.color, part_style.material) if part_style else 0
-                style[i, s, p] = self.categorical(truth, NUM_STYLES)
-                occ[i, s, p] = self.binary(obj.part_occluded(raw))
-                by = obj.part_occluded_by(raw)
-                pocc[i, s, p] = [0.0 if j == i else self.binary(j in by) for j in range(n)]
-        ev.update(part_visible_logodds=vis, part_style_loglik=style, part_occluded_logodds=occ,
-                  part_occludes_logodds=pocc)
-        ev["positions"] = np.array([o.position for o in objs], dtype=float).reshape(n, 3)
-        ev["depths"] = np.array([_depth(self.scene, o) for o in objs], dtype=float)
-        tensors = {k: torch.as_tensor(v, dtype=DTYPE) for k, v in ev.items()}
-        directions = {k: torch.as_tensor(v, dtype=DTYPE) for k, v in self.scene.directions.items()}
-        return SceneEvidence(**tensors, directions=directions)
-
-
-def _part_visible(obj: SceneObject, raw: str) -> bool:
-    """Recoloured parts are visible by construction; otherwise use the annotation (>= 20 visible pixels)."""
-    if raw in obj.parts:
-        return True
-    ann = obj.part_annotations.get(raw)
-    return bool(ann and ann.visible_pixels >= 20)
-
-
-def _depth(scene: Scene, obj: SceneObject) -> float:
-    if obj.pixel_coords is not None:
-        return float(obj.pixel_coords[2])
-    if scene.camera is not None:
-        return float(scene.camera.project(np.asarray(obj.position))[2])
-    raise InputError("scene", "objects need pixel_coords or the scene a camera to compute depths")
+    The contract promises there are none among proposals that are likely to exist; evaluation measures it with
+    this (it needs ``boxes``).
+    """
+    if evidence.boxes is None:
+        raise EvidenceError("boxes: duplicate_pairs needs the proposals' boxes; this evidence carries none")
+    x, y, w, h = evidence.boxes.to(DTYPE).unbind(-1)
+    x1, y1 = torch.maximum(x[:, None], x[None]), torch.maximum(y[:, None], y[None])
+    x2, y2 = torch.minimum((x + w)[:, None], (x + w)[None]), torch.minimum((y + h)[:, None], (y + h)[None])
+    inter = (x2 - x1).clamp(min=0) * (y2 - y1).clamp(min=0)
+    union = (w * h)[:, None] + (w * h)[None] - inter
+    iou = torch.where(union > 0, inter / union.clamp(min=1e-12), torch.zeros_like(inter))
+    n = evidence.num_objects
+    return [(i, j) for i in range(n) for j in range(i + 1, n) if float(iou[i, j]) >= min_iou]
