@@ -21,8 +21,7 @@ from po3d_ppl import ontology
 from po3d_ppl.evidence import CERTAIN, SceneEvidence, ScenePriors
 from po3d_ppl.perception import simulated_evidence
 from po3d_ppl.questions.executor import execute
-from po3d_ppl.reasoning.latent_scene import scene_from_assignment
-from po3d_ppl.world.scene import Scene
+from po3d_ppl.world.scene import EntityAnnotation, Occlusion, PartStyle, Scene, SceneObject, compute_relationships
 
 S = len(ontology.SUBTYPES)
 
@@ -150,3 +149,45 @@ def brute_force(program_json: list[dict], ev: SceneEvidence, priors: ScenePriors
         else:
             invalid += weight
     return dict(dist), invalid
+
+
+def scene_from_assignment(assign: dict[tuple, int], evidence: SceneEvidence) -> Scene:
+    """The scene an assignment describes: non-existing proposals are dropped (and the rest re-indexed).
+
+    Assignments map latent elements to value indices: ``("exists", i)``, ``("pose", i)`` (an index into the
+    proposal's azimuth grid), ``("occludes", i, j)`` (i occluded by j), ``("part_state", i, s, p)``,
+    ``("part_occludes", i, s, p, j)`` for subtype hypothesis s, ... Running the reference executor on the scene
+    checks the latent-world semantics against the ground-truth ones, assignment by assignment."""
+    n = evidence.num_objects
+    alive = [i for i in range(n) if assign[("exists", i)] == 1]
+    new_index = {i: k for k, i in enumerate(alive)}
+    objects = []
+    for i in alive:
+        s = assign[("subtype", i)]
+        sub = ontology.SUBTYPES[s]
+        parts, part_ann = {}, {}
+        for p, raw in enumerate(ontology.PARTS[sub]):
+            state = assign[("part_state", i, s, p)]
+            if state >= 2:
+                style = state - 2
+                parts[raw] = PartStyle(ontology.COLORS[style // len(ontology.MATERIALS)],
+                                       ontology.MATERIALS[style % len(ontology.MATERIALS)])
+            by = tuple(new_index[j] for j in alive if j != i and assign[("part_occludes", i, s, p, j)] == 1)
+            occ = Occlusion(level=1 if by else 0, visible_before=True, occluded_by=by,
+                            occluded=bool(assign[("part_occluded", i, s, p)]))
+            visible = 20 if state >= 1 else 0
+            part_ann[raw] = EntityAnnotation(visible, visible, (0, 0, 0, 0), occ)
+        by = tuple(new_index[j] for j in alive if j != i and assign[("occludes", i, j)] == 1)
+        occ = Occlusion(level=1 if by else 0, visible_before=True, occluded_by=by,
+                        occluded=bool(assign[("occluded", i)]))
+        objects.append(SceneObject(
+            subtype=sub, color=ontology.COLORS[assign[("color", i)]],
+            material=ontology.MATERIALS[assign[("material", i)]], size=ontology.SIZES[assign[("size", i)]],
+            rotation=0.0, position=tuple(float(x) for x in evidence.positions[i]),
+            pose_degree=float(evidence.pose_support[i, assign[("pose", i)]]), parts=parts,
+            pixel_coords=(0.0, 0.0, float(evidence.depths[i])),
+            annotation=EntityAnnotation(200, 200, (0, 0, 0, 0), occ), part_annotations=part_ann))
+    directions = {k: tuple(float(x) for x in v) for k, v in evidence.directions.items()}
+    positions = np.array([o.position for o in objects], dtype=float).reshape(-1, 3)
+    return Scene(objects=tuple(objects), directions=directions,
+                 relationships=compute_relationships(positions, directions))

@@ -9,8 +9,10 @@ reports which node it was.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
 from po3d_ppl.language import as_typed_program
+from po3d_ppl.language.interpret import interpret
 from po3d_ppl.questions import reference
 from po3d_ppl.questions.context import SceneContext
 from po3d_ppl.questions.program import to_public_output
@@ -53,16 +55,12 @@ def _context(scene: Scene | SceneContext) -> SceneContext:
 
 def execute_nodes(ctx: SceneContext, typed) -> ExecutionResult:
     """Run an already type-checked program (a ``po3d_ppl.language.TypedProgram``)."""
-    outputs: list = []
-    types = typed.types
-    for index, typed_node in enumerate(typed.nodes):
-        node, op = typed_node.node, typed_node.operation
-        args = [outputs[i] for i in node.inputs] + ([] if node.value is None else [node.value])
-        try:
-            outputs.append(op.reference_fn(ctx, *args))
-        except InvalidStep as exc:
-            return ExecutionResult(tuple(outputs), types, index, f"program[{index}] ({node.function}): {exc}")
-    return ExecutionResult(tuple(outputs), types)
+    run = interpret(typed, lambda op: partial(op.reference_fn, ctx), stop_on=InvalidStep)
+    if run.stopped_at is None:
+        return ExecutionResult(run.outputs, typed.types)
+    node = typed.nodes[run.stopped_at].node
+    return ExecutionResult(run.outputs, typed.types, run.stopped_at,
+                           f"program[{run.stopped_at}] ({node.function}): {run.reason}")
 
 
 def execute(scene: Scene | SceneContext, program: object) -> ExecutionResult:

@@ -43,12 +43,6 @@ class SceneReasoner:
         return site_posteriors(self.evidence, self.priors)
 
     @cached_property
-    def _most_probable_scene(self):
-        from po3d_ppl.reasoning.inference.baselines import most_probable_scene
-
-        return most_probable_scene(self.posteriors, self.evidence)
-
-    @cached_property
     def _soft_rules(self):
         from po3d_ppl.reasoning.inference.baselines import soft_rules
 
@@ -135,12 +129,11 @@ class SceneReasoner:
 
         from po3d_ppl.reasoning.inference.baselines import thresholded_answer
 
-        answer, valid = thresholded_answer(compiled.typed, self._most_probable_scene)
-        support = self._support(compiled)
-        probs = torch.zeros(len(support), dtype=torch.float64)
-        if valid:
-            probs[support.index(answer)] = 1.0
-        return self._distribution(compiled, probs, 0.0 if valid else 1.0, "thresholded")
+        answer = thresholded_answer(compiled.typed, self.posteriors, self.evidence)
+        probs = torch.zeros(len(self._support(compiled)), dtype=torch.float64)
+        if answer != values.INVALID:
+            probs[answer] = 1.0
+        return self._distribution(compiled, probs, 0.0 if answer != values.INVALID else 1.0, "thresholded")
 
     def _soft(self, compiled, **_):
         from po3d_ppl.reasoning.inference.baselines import soft_distribution

@@ -1,7 +1,7 @@
 """The two comparison baselines; the only inference code that does not derive answers from the compiled model.
 
-- ``thresholded`` (NS-VQA style): take the most probable value of every latent, build that one scene and run the
-  question engine's reference executor on it. Certain answers, no notion of doubt.
+- ``thresholded`` (NS-VQA style): take the most probable value of every latent and run the program on that one
+  scene. Certain answers, no notion of doubt.
 - ``soft`` (P-NSVQA style): propagate independent probabilities through the program: a set is a vector of
   membership probabilities, ``unique`` normalises it into a distribution over objects, queries mix attribute
   marginals, counts assume independent members. Correlations between steps (the same object's colour filtered
@@ -20,29 +20,25 @@ import torch
 from po3d_ppl import ontology
 from po3d_ppl.errors import Po3dError
 from po3d_ppl.evidence import DTYPE, STATE_COLOR, STATE_MATERIAL, SceneEvidence
+from po3d_ppl.language.interpret import interpret
 from po3d_ppl.reasoning import values
-from po3d_ppl.reasoning.latent_scene import argmax_assignment, scene_from_assignment
+from po3d_ppl.reasoning.execution import run_program
+from po3d_ppl.reasoning.inference.concrete_world import most_probable_world
 from po3d_ppl.reasoning.posterior import SitePosteriors
 from po3d_ppl.reasoning.world import pose_label_ids, pose_relation_ids
-from po3d_ppl.world.scene import RELATION_EPS, Scene
+from po3d_ppl.world.scene import RELATION_EPS
 
 
 class SoftUnsupported(Po3dError):
     """The soft baseline has no rule for an operation (user-registered operations, for instance)."""
 
 
-def most_probable_scene(post: SitePosteriors, evidence: SceneEvidence) -> Scene:
-    """The scene the thresholded baseline reasons about: every latent at its most probable value."""
-    return scene_from_assignment(argmax_assignment(post), evidence)
-
-
-def thresholded_answer(typed, scene: Scene):
-    """(answer or None, valid) from the reference executor on ``scene`` (see :func:`most_probable_scene`)."""
-    from po3d_ppl.language import program_to_json
-    from po3d_ppl.questions.executor import execute
-
-    result = execute(scene, program_to_json(typed.program))
-    return result.answer, result.valid
+def thresholded_answer(typed, post: SitePosteriors, evidence: SceneEvidence) -> int:
+    """The answer id (``values.INVALID`` when the execution is invalid) of the program run on the one most probable
+    scene."""
+    world = most_probable_world(post, evidence)
+    value = int(run_program(typed, world).reshape(-1)[0])
+    return value if bool(world.valid.reshape(-1)[0]) else values.INVALID
 
 
 # ---- soft (P-NSVQA) --------------------------------------------------------------------------------------------
@@ -197,17 +193,14 @@ def soft_rules(post: SitePosteriors, evidence: SceneEvidence) -> SoftRules:
 def soft_distribution(typed, rules: SoftRules, num_values: int) -> tuple[torch.Tensor, float]:
     """Answer probabilities per id and the invalid mass under independent-probability propagation (``rules`` from
     :func:`soft_rules`)."""
-    results = []
-    for node in typed.nodes:
-        op = node.operation
+    def implementation(op):
         rule = rules.get((op.name, op.inputs))
         if rule is None:
             raise SoftUnsupported(f"the soft baseline has no rule for {op.name}{op.signature}")
-        args = [results[i] for i in node.node.inputs]
-        if node.node.value is not None:
-            args.append(node.node.value)
-        results.append(rule(*args))
-    answer = results[-1].to(DTYPE).reshape(-1)
+        return rule
+
+    result = interpret(typed, implementation).result
+    answer = result.to(DTYPE).reshape(-1)
     probs = torch.zeros(num_values, dtype=DTYPE)
     probs[: answer.shape[0]] = answer[:num_values]
     return probs, float(max(0.0, 1.0 - probs.sum()))

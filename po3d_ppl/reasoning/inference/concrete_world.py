@@ -54,6 +54,19 @@ def object_centric(name: str, site: Callable[[str], torch.Tensor], pose_support:
     return torch.take_along_dim(table, index, dim=models).squeeze(models)
 
 
+def most_probable_world(post, evidence, on_read: Callable[[str], None] | None = None) -> ConcreteWorld:
+    """One concrete scene with every latent at its most probable value (ties: the lowest index), as the
+    thresholded baseline and the dense engine's first pass see it; ``on_read(site)`` hears each site read."""
+
+    def argmax_site(site: str) -> torch.Tensor:
+        if on_read is not None:
+            on_read(site)
+        return post.probs[site].argmax(-1).unsqueeze(0)
+
+    return ConcreteWorld(lambda name: object_centric(name, argmax_site, evidence.pose_support), (1,),
+                         evidence.num_objects, evidence.positions, evidence.depths, evidence.directions)
+
+
 @dataclass(frozen=True)
 class PartHandle:
     owner: torch.Tensor  # [*B]

@@ -16,7 +16,12 @@ import torch
 from po3d_ppl import ontology
 from po3d_ppl.evidence import DTYPE, SceneEvidence
 from po3d_ppl.reasoning.execution import run_program
-from po3d_ppl.reasoning.inference.concrete_world import OBJECT_LATENTS, ConcreteWorld, object_centric
+from po3d_ppl.reasoning.inference.concrete_world import (
+    OBJECT_LATENTS,
+    ConcreteWorld,
+    most_probable_world,
+    object_centric,
+)
 from po3d_ppl.reasoning.inference.enum_world import ExactUnsupported
 from po3d_ppl.reasoning.posterior import SitePosteriors
 from po3d_ppl.reasoning.values import INVALID
@@ -63,13 +68,7 @@ def dense_distribution(typed, post: SitePosteriors, evidence: SceneEvidence, num
 
     # 1. which sites does the program read? (run it on the most probable scene)
     read: set[str] = set()
-
-    def argmax_site(site: str) -> torch.Tensor:
-        read.add(site)
-        return tables.argmax[site].unsqueeze(0)
-
-    run_program(typed, ConcreteWorld(lambda name: object_centric(name, argmax_site, evidence.pose_support), (1,), n,
-                                     evidence.positions, evidence.depths, evidence.directions))
+    run_program(typed, most_probable_world(post, evidence, on_read=read.add))
 
     # 2. enumerate the joint support of their elements
     subtypes = [[int(s) for s in torch.nonzero(post.probs["subtype"][i] > 0).flatten()] for i in range(n)]
