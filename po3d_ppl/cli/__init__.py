@@ -12,6 +12,7 @@ import sys
 
 import typer
 from rich.console import Console
+from rich.text import Text
 
 from po3d_ppl.errors import Po3dError
 
@@ -35,10 +36,16 @@ for _name in _MODULES:
     importlib.import_module(f"po3d_ppl.cli.{_name}").register(app, train_app, eval_app)
 
 
+def print_error(exc: Po3dError, console: Console | None = None) -> None:
+    """Print ``exc`` as ``error: <message>``, literally: messages quote paths and programs holding ``[...]``,
+    which must neither be read as markup nor be wrapped at the console width (the error stays one line)."""
+    console = console or Console(stderr=True)
+    console.print(Text.assemble(("error:", "bold red"), " ", str(exc)), highlight=False, soft_wrap=True)
+
+
 def main() -> None:
-    console = Console(stderr=True)
     try:
         app()
     except Po3dError as exc:
-        console.print(f"[bold red]error:[/] {exc}", highlight=False)
+        print_error(exc)
         sys.exit(2)

@@ -1,11 +1,29 @@
-"""Argument helpers shared by the command modules."""
+"""Argument and printing helpers shared by the command modules."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
 
+from rich.text import Text
+
 from po3d_ppl.errors import InputError
+
+#: The largest seed every consumer accepts (numpy's SeedSequence, torch.manual_seed, the world's int64 seeds).
+MAX_SEED = 2**63 - 1
+
+
+def check_seed(value: int, option: str = "--seed") -> int:
+    """``value`` if it is a usable seed. Negative seeds reach numpy as a bare ValueError otherwise."""
+    if not 0 <= value <= MAX_SEED:
+        raise InputError(option, f"must be an integer in 0..{MAX_SEED}, got {value}; pass e.g. {option} 0")
+    return value
+
+
+def literal(text: object) -> Text:
+    """``text`` as a rich renderable printed as it is: paths, programs, questions and answers hold ``[...]``,
+    which rich would otherwise read as markup (dropping it, or failing on ``[/x]``)."""
+    return Text(str(text))
 
 
 def load_scene_arg(path: Path, index: int | None, option: str = "--index"):
@@ -28,7 +46,7 @@ def read_program_arg(text: str, option: str = "--program", allow_text: bool = Fa
     source, body = option, text
     stripped = text.lstrip()
     if not stripped.startswith(("[", "{")) and Path(text).is_file():
-        source, body = str(Path(text)), Path(text).read_text(encoding="utf-8")
+        source, body = str(Path(text)), read_text_file(Path(text), option)
         stripped = body.lstrip()
     if stripped.startswith(("[", "{")):
         try:
@@ -39,3 +57,14 @@ def read_program_arg(text: str, option: str = "--program", allow_text: bool = Fa
     if allow_text:
         return body
     raise InputError(option, f"{text!r} is neither a JSON program list nor an existing file")
+
+
+def read_text_file(path: Path, option: str) -> str:
+    """The UTF-8 text of ``path`` (given with ``option``), or a typed error naming the file and the fix."""
+    try:
+        return path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(option, f"{path} is not UTF-8 text (byte 0x{exc.object[exc.start]:02x} at offset "
+                                 f"{exc.start}); save it as UTF-8") from None
+    except OSError as exc:
+        raise InputError(option, f"cannot read {path}: {exc.strerror or exc}") from None

@@ -27,18 +27,21 @@ def answer(
     import json
 
     from rich.console import Console
+    from rich.text import Text
 
-    from po3d_ppl.cli._common import load_scene_arg, read_program_arg
+    from po3d_ppl.cli._common import check_seed, load_scene_arg, read_program_arg
     from po3d_ppl.errors import InputError
-    from po3d_ppl.reasoning import SceneEvidence, SceneReasoner
+    from po3d_ppl.reasoning import SceneReasoner
+    from po3d_ppl.perception import simulated_evidence
 
+    check_seed(seed)
     if (question is None) == (program is None):
         raise InputError("QUESTION/--program", "give exactly one of a question or --program")
     if samples < 1:
         raise InputError("--samples", f"must be >= 1, got {samples}")
     if n_best < 1:
         raise InputError("--parses", f"must be >= 1, got {n_best}")
-    reasoner = SceneReasoner(SceneEvidence.from_scene(load_scene_arg(scene, index), noise=noise, seed=seed))
+    reasoner = SceneReasoner(simulated_evidence(load_scene_arg(scene, index), noise=noise, seed=seed))
     parse = None
     if program is not None:
         dist = reasoner.infer(read_program_arg(program, allow_text=True), method, num_samples=samples, seed=seed)
@@ -59,10 +62,12 @@ def answer(
         from po3d_ppl.language import program_to_text
 
         for c in parse.candidates:
-            console.print(f"[dim]{c.probability:.3f}[/]  {program_to_text(c.program)}", highlight=False)
+            console.print(Text.assemble((f"{c.probability:.3f}", "dim"), "  ", program_to_text(c.program)),
+                          highlight=False, soft_wrap=True)
         if parse.unknown_words:
-            console.print(f"[yellow]unknown words:[/] {', '.join(parse.unknown_words)}")
-    console.print(str(dist), highlight=False)
+            console.print(Text.assemble(("unknown words:", "yellow"), " ", ", ".join(parse.unknown_words)),
+                          highlight=False)
+    console.print(str(dist), markup=False, highlight=False)
 
 
 def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:

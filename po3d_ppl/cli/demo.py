@@ -29,12 +29,15 @@ def demo(
     from rich.console import Console
     from rich.table import Table
 
+    from po3d_ppl.cli._common import check_seed, literal
     from po3d_ppl.errors import InputError
     from po3d_ppl.language import QuestionParser, program_to_text
     from po3d_ppl.questions.scene_questions import generate_questions
-    from po3d_ppl.reasoning import SceneEvidence, SceneReasoner
+    from po3d_ppl.reasoning import SceneReasoner
+    from po3d_ppl.perception import simulated_evidence
     from po3d_ppl.world import generate_scene, save_scene
 
+    check_seed(seed)
     if questions < 1:
         raise InputError("--questions", f"must be >= 1, got {questions}")
     console = Console()
@@ -45,7 +48,8 @@ def demo(
         raise InputError("--out", f"cannot write {out / 'image.png'}")
     save_scene(rendered.scene, out / "scene.json")
     scene = rendered.scene
-    console.print(f"scene {seed}: {len(scene.objects)} objects -> {out / 'image.png'}")
+    console.print(f"scene {seed}: {len(scene.objects)} objects -> {out / 'image.png'}", markup=False,
+                  highlight=False)
 
     per_file = generate_questions(scene, seed)
     picked = []
@@ -55,7 +59,7 @@ def demo(
             if per_file[name] and len(picked) < questions:
                 picked.append((name, per_file[name].pop(0)))
     parser = QuestionParser.load()
-    reasoner = SceneReasoner(SceneEvidence.from_scene(scene, noise=noise, seed=seed))
+    reasoner = SceneReasoner(simulated_evidence(scene, noise=noise, seed=seed))
     table = Table(title=f"answers (evidence: ground truth with sensor noise {noise})", show_lines=True)
     for column in ("question", "parsed program", "answer distribution", "truth"):
         table.add_column(column)
@@ -65,14 +69,14 @@ def demo(
         top = ", ".join(f"{dist.words(a)} {p:.2f}" for a, p in list(dist.probs.items())[:3])
         if dist.invalid > 0.005:
             top += f", (invalid) {dist.invalid:.2f}"
-        table.add_row(q["question"], f"{program_to_text(parse.best.program)}  [{parse.best.probability:.2f}]",
-                      top, str(q["answer"]))
+        table.add_row(*map(literal, (q["question"], f"{program_to_text(parse.best.program)}  "
+                                     f"[{parse.best.probability:.2f}]", top, q["answer"])))
         report.append({"file": name, "question": q["question"], "truth": q["answer"],
                        "parses": [{"program": program_to_text(c.program), "probability": c.probability}
                                   for c in parse.candidates], "answer": dist.to_dict()})
     console.print(table)
     (out / "answers.json").write_text(json.dumps(report, indent=1) + "\n")
-    console.print(f"details: {out / 'answers.json'}")
+    console.print(f"details: {out / 'answers.json'}", markup=False, highlight=False)
 
 
 def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:

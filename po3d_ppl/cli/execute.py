@@ -24,15 +24,15 @@ def execute(
     result = run(load_scene_arg(scene, index), read_program_arg(program))
     console = Console()
     if not result.valid:
-        console.print(f"invalid: {result.reason}", highlight=False)
+        console.print(f"invalid: {result.reason}", markup=False, highlight=False)
         raise typer.Exit(1)
     answer = result.answer
     shown = result.public_outputs()[-1]
     if result.answer_type in ("ObjectSet", "PartSet", "Object", "Part"):
-        console.print(f"{shown}  ({result.answer_type})", highlight=False)
+        console.print(f"{shown}  ({result.answer_type})", markup=False, highlight=False)
     else:
         console.print(f"{answer!r} -> {verbalise_answer(answer, result.answer_type)!r}  ({result.answer_type})",
-                      highlight=False)
+                      markup=False, highlight=False)
 
 
 def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:

@@ -46,7 +46,7 @@ def parse(
 def train_parser_command(
     data: list[Path] = typer.Option(..., "--data", help="Dataset directory from `po3d dataset build` "
                                                          "(repeat to train on several)."),
-    seed: int = typer.Option(0, "--seed", help="Seed for initialisation, shuffling and dropout."),
+    seed: int = typer.Option(0, "--seed", help="Seed for initialisation, shuffling and dropout (>= 0)."),
     epochs: int = typer.Option(6, "--epochs", min=1, help="Passes over the training split."),
     batch_size: int = typer.Option(64, "--batch-size", min=1),
     lr: float = typer.Option(2e-3, "--lr", help="Peak learning rate (one-cycle schedule)."),
@@ -69,7 +69,7 @@ def train_parser_command(
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
     from po3d_ppl.errors import InputError
-    from po3d_ppl.language.seq2seq.data import open_dataset, split_examples
+    from po3d_ppl.questions.parser_examples import open_dataset, split_examples
     from po3d_ppl.language.seq2seq.model_io import MODEL_NAME, save_parser
     from po3d_ppl.language.seq2seq.train import TrainConfig, train_parser
     from po3d_ppl.language.typecheck import default_registry
@@ -77,6 +77,9 @@ def train_parser_command(
 
     import torch
 
+    from po3d_ppl.cli._common import check_seed
+
+    check_seed(seed)
     torch.set_num_threads(threads)
     console = Console()
     registry = default_registry()
@@ -117,7 +120,8 @@ def train_parser_command(
                         train_config=dataclasses.asdict(config), metrics=metrics)
     size = sum(f["bytes"] for f in entry["files"].values())
     console.print(f"wrote {', '.join(str(f) for f in files)} ({size / 1e6:.2f} MB) in {seconds:.0f} s; "
-                  f"val exact match {metrics.get('val_exact_match', float('nan')):.4f}", highlight=False)
+                  f"val exact match {metrics.get('val_exact_match', float('nan')):.4f}", markup=False,
+                  highlight=False)
 
 
 def eval_parser_command(
@@ -136,8 +140,10 @@ def eval_parser_command(
     from rich.table import Table
 
     from po3d_ppl.language import QuestionParser
-    from po3d_ppl.language.seq2seq.data import open_dataset, split_examples
+    from po3d_ppl.questions.parser_examples import open_dataset, split_examples
     from po3d_ppl.language.seq2seq.train import evaluate
+
+    from po3d_ppl.cli._common import literal
 
     torch.set_num_threads(threads)
     parser = QuestionParser.load(model_dir)
@@ -150,17 +156,17 @@ def eval_parser_command(
     report = evaluate(parser.trained, examples, parser.registry, predict=predict)
     report.update({"data": str(data), "split": split, "beam": beam, "n": n,
                    "data_seed": dataset.manifest.get("seed")})
-    table = Table(title=f"question parser on {data} [{split}]",
+    table = Table(title=literal(f"question parser on {data} [{split}]"),
                   caption=f"exact: best program = gold; in {n}-best: gold among the {n} best programs")
     for col in ("file", "questions", "exact", f"in {n}-best"):
         table.add_column(col, justify="left" if col == "file" else "right")
     for name, row in [*report["per_file"].items(), ("all", report)]:
-        table.add_row(name, str(row["count"]), f"{row['exact_match']:.4f}", f"{row['in_n_best']:.4f}")
+        table.add_row(literal(name), str(row["count"]), f"{row['exact_match']:.4f}", f"{row['in_n_best']:.4f}")
     console = Console()
     console.print(table)
     worst = sorted(report["per_family"].items(), key=lambda kv: kv[1]["exact_match"])[:3]
     console.print("lowest families: " + ", ".join(f"{k} {v['exact_match']:.3f} ({v['count']})" for k, v in worst),
-                  highlight=False)
+                  markup=False, highlight=False)
     if json_out is not None:
         json_out.parent.mkdir(parents=True, exist_ok=True)
         json_out.write_text(json.dumps(report, indent=2) + "\n")

@@ -35,13 +35,15 @@ def meshes(
         path = export_glb(vm, out / f"{name}.glb")
         palette = cs.part_palette(len(vm.part_names))
         colors[name] = {p: [int(round(c * 255)) for c in palette[i]] for i, p in enumerate(vm.part_names)}
-        console.print(f"{path}  {len(vm.mesh.faces)} triangles, {len(vm.part_names)} parts", highlight=False)
+        console.print(f"{path}  {len(vm.mesh.faces)} triangles, {len(vm.part_names)} parts", markup=False,
+                      highlight=False)
     (out / "part_colors.json").write_text(json.dumps(colors, indent=1))
     sheet = cs.write_png(out / "contact_sheet.png", cs.contact_sheet(meshes_by_name))
-    console.print(f"{sheet}", highlight=False)
+    console.print(f"{sheet}", markup=False, highlight=False)
     if legends:
         for name in meshes_by_name:
-            console.print(f"{cs.write_png(out / f'legend_{name}.png', cs.part_legend(name))}", highlight=False)
+            console.print(f"{cs.write_png(out / f'legend_{name}.png', cs.part_legend(name))}", markup=False,
+                          highlight=False)
 
 
 def _make_out_dir(out: Path) -> None:
@@ -101,7 +103,8 @@ def render(
     scene = result.scene
     occluded = sum(o.occluded for o in scene.objects)
     Console().print(f"{out}: {len(scene)} objects ({occluded} occluded), {result.attempts} layout(s) tried, "
-                    f"{elapsed:.2f} s -> image.png, scene.json, masks.png", highlight=False, soft_wrap=True)
+                    f"{elapsed:.2f} s -> image.png, scene.json, masks.png", markup=False, highlight=False,
+                    soft_wrap=True)
 
 
 def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:
