@@ -18,21 +18,18 @@ from po3d_ppl.errors import InputError
 from po3d_ppl.evidence import SceneEvidence, ScenePriors
 from po3d_ppl.reasoning import values
 from po3d_ppl.reasoning.execution import run_program
-from po3d_ppl.reasoning.inference.concrete_world import ConcreteWorld, object_centric
-from po3d_ppl.reasoning.posterior import element_layout
-from po3d_ppl.reasoning.scene_model import SITES, scene_model
+from po3d_ppl.reasoning.inference.concrete_world import ConcreteWorld, evidence_supports, object_centric
+from po3d_ppl.reasoning.latents import SITE, element_layout
+from po3d_ppl.reasoning.scene_model import scene_model
 
 #: Output types a program may end in (an answer), with their value vocabularies in ``values``.
 ANSWER_TYPES = ("Bool", "Integer", *values.ANSWER_VOCABULARY)
 
 
-_PLATES = {spec.name: spec.plates for spec in SITES}
-
-
 def _object_centric(latents: dict[str, torch.Tensor], evidence: SceneEvidence):
     """A ``ConcreteWorld`` source reading the scene model's latents (plate layout) object by object."""
-    site = lambda name: element_layout(latents[name], _PLATES[name])  # noqa: E731
-    return lambda name: object_centric(name, site, evidence.pose_support)
+    site = lambda name: element_layout(latents[name], SITE[name].plates)  # noqa: E731
+    return lambda name: object_centric(name, site, evidence_supports(evidence))
 
 
 @dataclass(frozen=True)

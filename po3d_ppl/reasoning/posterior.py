@@ -17,15 +17,12 @@ from pyro.infer import config_enumerate
 
 from po3d_ppl.errors import Po3dError
 from po3d_ppl.evidence import DTYPE, SceneEvidence, ScenePriors
-from po3d_ppl.reasoning.scene_model import FIRST_ENUM_DIM, SITES, scene_model
+from po3d_ppl.reasoning.latents import FIRST_ENUM_DIM, PLATE_DIMS, SITES, element_layout
+from po3d_ppl.reasoning.scene_model import scene_model
 
-#: Axis orders of the tables returned, per site plate signature (values always last).
-_LAYOUT = {
-    ("objects",): "[N, K]",
-    ("occluders", "objects"): "[N_i, N_j, K]",
-    ("models", "objects", "parts"): "[N, 21, P, K]",
-    ("occluders", "models", "objects", "parts"): "[N_i, 21, P, N_j, K]",
-}
+
+class LayoutError(Po3dError):
+    """The scene model's sampled sites differ from the declaration in ``latents.SITES``."""
 
 
 class CoupledModelError(Po3dError):
@@ -34,7 +31,8 @@ class CoupledModelError(Po3dError):
 
 @dataclass(frozen=True)
 class SitePosteriors:
-    """Posterior probabilities per site (see ``_LAYOUT`` for axis orders) and the support of each site."""
+    """Posterior probabilities per site (axis orders: ``latents.TABLE_AXES`` of the site's kind) and the support
+    of each site."""
 
     probs: dict[str, torch.Tensor]
     #: Values of each site's support: ``[K]`` ids, or ``[N, K]`` for per-proposal supports (pose azimuths).
@@ -54,6 +52,11 @@ def site_posteriors(evidence: SceneEvidence, priors: ScenePriors = ScenePriors()
     model = poutine.enum(config_enumerate(scene_model, default="parallel"), first_available_dim=FIRST_ENUM_DIM)
     trace = poutine.trace(model).get_trace(evidence, priors)
     trace.compute_log_prob()
+    sampled = [name for name, node in trace.nodes.items()
+               if node["type"] == "sample" and not node["is_observed"] and name not in PLATE_DIMS]
+    if sampled != [spec.name for spec in SITES]:
+        raise LayoutError(f"the scene model samples {sampled}, but latents.SITES declares "
+                             f"{[spec.name for spec in SITES]}: declare every latent once, in model order")
     site_dim: dict[int, str] = {}
     for spec in SITES:
         dims = _enum_dim(trace.nodes[spec.name]["value"].shape)
@@ -86,22 +89,5 @@ def site_posteriors(evidence: SceneEvidence, priors: ScenePriors = ScenePriors()
         table = element_layout(table.movedim(-1, 0), spec.plates).movedim(0, -1)
         probs[spec.name] = table.contiguous() if len(spec.plates) > 1 else table
         k = probs[spec.name].shape[-1]
-        support[spec.name] = evidence.pose_support if spec.name == "pose" else torch.arange(k)
+        support[spec.name] = getattr(evidence, spec.support_field) if spec.support_field else torch.arange(k)
     return SitePosteriors(probs, support)
-
-
-def element_layout(value: torch.Tensor, plates: tuple[str, ...]) -> torch.Tensor:
-    """A site's value in the scene model's plate layout (``[*B, occluders, models, objects, parts]``, singletons
-    where a plate is absent, at least one batch dimension assumed) in the site's ``_LAYOUT`` without the values
-    axis, batch first: ``[*B, N]``, ``[*B, N_i, N_j]``, ``[*B, N, 21, P]`` or ``[*B, N_i, 21, P, N_j]``."""
-    if value.dim() < 5:
-        value = value.reshape([1] * (5 - value.dim()) + list(value.shape))
-    if plates == ("objects",):
-        return value[..., 0, 0, :, 0]
-    if plates == ("occluders", "objects"):
-        return value[..., :, 0, :, 0].transpose(-1, -2)
-    if plates == ("models", "objects", "parts"):
-        return value[..., 0, :, :, :].transpose(-3, -2)
-    if plates == ("occluders", "models", "objects", "parts"):
-        return value.movedim(-4, -1).transpose(-4, -3)
-    raise AssertionError(f"unexpected plates {plates}")

@@ -14,12 +14,11 @@ Every inference method derives from this function through Pyro's handlers: the e
 ``poutine.enum`` to read each site's posterior table; sampling draws from it with ``infer_discrete``; the generic
 reference path hands it to ``TraceEnum_ELBO``.
 
-Plate layout (shared with the inference engines): parts -1, objects -2, subtype hypotheses -3, occluders -4.
+The sites, their plates and supports are declared in :mod:`po3d_ppl.reasoning.latents` (the posterior tables
+check that the trace samples exactly those); plate dims: parts -1, objects -2, subtype hypotheses -3, occluders -4.
 """
 
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import pyro
 import pyro.distributions as dist
@@ -28,38 +27,8 @@ from pyro.ops.indexing import Vindex
 
 from po3d_ppl import ontology
 from po3d_ppl.errors import Po3dError
-from po3d_ppl.evidence import DTYPE, NUM_PART_STATES, SceneEvidence, ScenePriors
-
-PARTS_DIM, OBJECTS_DIM, MODELS_DIM, OCCLUDERS_DIM = -1, -2, -3, -4
-#: First dimension free for enumeration (left of every plate).
-FIRST_ENUM_DIM = -5
-
-
-@dataclass(frozen=True)
-class SiteSpec:
-    """A latent site of the scene model: its plates (outermost first) and number of values."""
-
-    name: str
-    plates: tuple[str, ...]
-    size: int | None  # None: depends on the evidence (pose bins)
-
-
-#: The latent sites, in model order. Plates: 'occluders' (j), 'models' (s), 'objects' (i), 'parts' (p).
-SITES: tuple[SiteSpec, ...] = (
-    SiteSpec("exists", ("objects",), 2),
-    SiteSpec("subtype", ("objects",), len(ontology.SUBTYPES)),
-    SiteSpec("color", ("objects",), len(ontology.COLORS)),
-    SiteSpec("material", ("objects",), len(ontology.MATERIALS)),
-    SiteSpec("size", ("objects",), len(ontology.SIZES)),
-    SiteSpec("pose", ("objects",), None),
-    SiteSpec("occluded", ("objects",), 2),
-    SiteSpec("occludes", ("occluders", "objects"), 2),
-    SiteSpec("part_state", ("models", "objects", "parts"), NUM_PART_STATES),
-    SiteSpec("part_occluded", ("models", "objects", "parts"), 2),
-    SiteSpec("part_occludes", ("occluders", "models", "objects", "parts"), 2),
-)
-#: The object-level sites (one value per proposal), in model order.
-OBJECT_SITES = tuple(s.name for s in SITES if s.plates == ("objects",))
+from po3d_ppl.evidence import DTYPE, SceneEvidence, ScenePriors
+from po3d_ppl.reasoning.latents import PLATE_DIMS
 
 
 def _bernoulli(name: str, prior: float, logodds: torch.Tensor) -> torch.Tensor:
@@ -88,10 +57,10 @@ def scene_model(evidence: SceneEvidence, priors: ScenePriors = ScenePriors()) ->
                                  "implemented yet (every program needs at least one proposal)")
     uniform = lambda size: torch.full((size,), 1.0 / size, dtype=DTYPE)  # noqa: E731
     latents: dict[str, torch.Tensor] = {}
-    occluders = pyro.plate("occluders", n, dim=OCCLUDERS_DIM)
-    models = pyro.plate("models", len(ontology.SUBTYPES), dim=MODELS_DIM)
-    objects = pyro.plate("objects", n, dim=OBJECTS_DIM)
-    parts = pyro.plate("parts", ontology.MAX_PARTS, dim=PARTS_DIM)
+    occluders = pyro.plate("occluders", n, dim=PLATE_DIMS["occluders"])
+    models = pyro.plate("models", len(ontology.SUBTYPES), dim=PLATE_DIMS["models"])
+    objects = pyro.plate("objects", n, dim=PLATE_DIMS["objects"])
+    parts = pyro.plate("parts", ontology.MAX_PARTS, dim=PLATE_DIMS["parts"])
 
     with objects:
         col = lambda t: t.unsqueeze(-1)  # noqa: E731  [N] -> [N, 1] (objects plate, parts broadcast)

@@ -1,10 +1,10 @@
 """A batch of concrete latent scenes, as operations see them (sampling, dense enumeration, the Pyro model).
 
-Latent values come from a *source*: a callable ``source(name) -> tensor`` giving object-centric values with a
-leading batch shape ``B`` (``exists``/``subtype``/``color``/``material``/``size``/``pose_degree``/``occluded``:
-``[*B, N]``; ``occludes``: ``[*B, N_i, N_j]`` (i occluded by j); ``part_state``/``part_occluded``: ``[*B, N, P]``
-for the slots of each object's own subtype; ``part_occludes``: ``[*B, N, P, N_j]``). Sources are asked lazily, so a
-program only pays for the latents it reads.
+Latent values come from a *source*: a callable ``source(name) -> tensor`` giving object-centric values, by each
+site's ``value_name`` (:mod:`po3d_ppl.reasoning.latents`), with a leading batch shape ``B``: object sites
+``[*B, N]`` (the pose as ``pose_degree`` azimuths), pair sites ``[*B, N_i, N_j]`` (i occluded by j), part sites
+``[*B, N, P]`` for the slots of each object's own subtype, part-pair sites ``[*B, N, P, N_j]``. Sources are asked
+lazily, so a program only pays for the latents it reads.
 
 Pivots are index tensors of shape ``[*B]`` (-1 once the execution became invalid); scalar program values have shape
 ``[*B, 1, 1]``. ``valid`` tracks, per batch element, whether every ``unique`` so far found exactly one member.
@@ -23,10 +23,8 @@ import torch
 
 from po3d_ppl.evidence import STATE_COLOR, STATE_MATERIAL
 from po3d_ppl.reasoning import values
+from po3d_ppl.reasoning.latents import BY_VALUE_NAME, MODELS_AXIS, SITE
 from po3d_ppl.reasoning.world import LatentWorld
-
-#: Object-level latents that sources give as they are, ``[*B, N]``.
-OBJECT_LATENTS = ("exists", "subtype", "color", "material", "size", "occluded")
 
 
 def pose_degrees(support: torch.Tensor, index: torch.Tensor) -> torch.Tensor:
@@ -35,23 +33,28 @@ def pose_degrees(support: torch.Tensor, index: torch.Tensor) -> torch.Tensor:
     return support.expand(*index.shape[:-1], *support.shape).gather(-1, index.unsqueeze(-1)).squeeze(-1)
 
 
-def object_centric(name: str, site: Callable[[str], torch.Tensor], pose_support: torch.Tensor) -> torch.Tensor:
-    """Source value ``name`` from ``site(site_name)``: a site's values in the posterior tables' layout without the
-    values axis, batch first (``[*B, N]``, ``[*B, N_i, N_j]``, ``[*B, N, 21, P]``, ``[*B, N_i, 21, P, N_j]``).
-    Part latents are read at each object's own subtype hypothesis."""
-    if name in OBJECT_LATENTS or name == "occludes":
-        return site(name)
-    if name == "pose_degree":
-        return pose_degrees(pose_support, site("pose"))
-    if name not in ("part_state", "part_occluded", "part_occludes"):
-        raise KeyError(name)
-    models = -3 if name == "part_occludes" else -2  # the subtype-hypothesis axis
+def object_centric(name: str, site: Callable[[str], torch.Tensor], supports: Callable[[str], torch.Tensor]
+                   ) -> torch.Tensor:
+    """Source value ``name`` (a site's ``value_name``) from ``site(site_name)``: a site's values in the posterior
+    tables' layout without the values axis, batch first (``latents.TABLE_AXES``). A site with per-proposal
+    supports is read through ``supports(site_name)``; part latents at each object's own subtype hypothesis."""
+    spec = BY_VALUE_NAME[name]
+    if spec.support_field is not None:
+        return pose_degrees(supports(spec.name), site(spec.name))
+    if spec.kind not in MODELS_AXIS:
+        return site(spec.name)
+    models = MODELS_AXIS[spec.kind]
     subtype = site("subtype").long()
     index = subtype.reshape(*subtype.shape, *([1] * -models))  # [*B, N, 1, 1(, 1)]
-    table = site(name)
+    table = site(spec.name)
     rank = max(index.dim(), table.dim())  # batch ranks may differ (broadcast)
     index, table = (t.reshape([1] * (rank - t.dim()) + list(t.shape)) for t in (index, table))
     return torch.take_along_dim(table, index, dim=models).squeeze(models)
+
+
+def evidence_supports(evidence) -> Callable[[str], torch.Tensor]:
+    """``supports(site)`` for :func:`object_centric`: the evidence field with the site's per-proposal values."""
+    return lambda name: getattr(evidence, SITE[name].support_field)
 
 
 def most_probable_world(post, evidence, on_read: Callable[[str], None] | None = None) -> ConcreteWorld:
@@ -63,7 +66,7 @@ def most_probable_world(post, evidence, on_read: Callable[[str], None] | None = 
             on_read(site)
         return post.probs[site].argmax(-1).unsqueeze(0)
 
-    return ConcreteWorld(lambda name: object_centric(name, argmax_site, evidence.pose_support), (1,),
+    return ConcreteWorld(lambda name: object_centric(name, argmax_site, evidence_supports(evidence)), (1,),
                          evidence.num_objects, evidence.positions, evidence.depths, evidence.directions)
 
 

@@ -17,12 +17,13 @@ from po3d_ppl import ontology
 from po3d_ppl.evidence import DTYPE, SceneEvidence
 from po3d_ppl.reasoning.execution import run_program
 from po3d_ppl.reasoning.inference.concrete_world import (
-    OBJECT_LATENTS,
     ConcreteWorld,
+    evidence_supports,
     most_probable_world,
     object_centric,
 )
 from po3d_ppl.reasoning.inference.enum_world import ExactUnsupported
+from po3d_ppl.reasoning.latents import SITE
 from po3d_ppl.reasoning.posterior import SitePosteriors
 from po3d_ppl.reasoning.values import INVALID
 
@@ -45,15 +46,16 @@ class _Tables:
         """(element index tuple into the site's table, its probability vector) for every element of ``site``."""
         probs = self.post.probs[site]
         n = self.n
-        if site in OBJECT_LATENTS or site == "pose":
+        kind = SITE[site].kind
+        if kind == "object":
             return [((i,), probs[i]) for i in range(n)]
-        if site == "occludes":
+        if kind == "pair":
             return [((i, j), probs[i, j]) for i in range(n) for j in range(n) if i != j]
         out = []
         for i in range(n):
             for s in subtypes[i]:
                 for p in range(len(ontology.PARTS[ontology.SUBTYPES[s]])):
-                    if site == "part_occludes":
+                    if kind == "part_pair":
                         out += [((i, s, p, j), probs[i, s, p, j]) for j in range(n) if j != i]
                     else:
                         out.append(((i, s, p), probs[i, s, p]))
@@ -94,7 +96,7 @@ def dense_distribution(typed, post: SitePosteriors, evidence: SceneEvidence, num
         weights = weights * probs[choice]
 
     # 3. run the program on every assignment at once
-    world = ConcreteWorld(lambda name: object_centric(name, batch.__getitem__, evidence.pose_support), (count,), n,
+    world = ConcreteWorld(lambda name: object_centric(name, batch.__getitem__, evidence_supports(evidence)), (count,), n,
                           evidence.positions, evidence.depths, evidence.directions)
     value = run_program(typed, world).expand(count, 1, 1).reshape(count)
     valid = world.valid & (value != INVALID)

@@ -29,8 +29,8 @@ from po3d_ppl.errors import Po3dError
 from po3d_ppl.evidence import STATE_COLOR, STATE_MATERIAL, SceneEvidence
 from po3d_ppl.reasoning import values
 from po3d_ppl.reasoning.inference.sop import Sop
+from po3d_ppl.reasoning.latents import BY_VALUE_NAME, OBJECT_SITES
 from po3d_ppl.reasoning.posterior import SitePosteriors
-from po3d_ppl.reasoning.scene_model import OBJECT_SITES
 from po3d_ppl.reasoning.world import LatentWorld
 
 
@@ -307,11 +307,11 @@ class EnumWorld(LatentWorld):
             return self.positions.squeeze(-2)[j]
         if name == "depth":
             return self.depths.squeeze(-1)[j]
-        site = "pose" if name == "pose_degree" else name
-        if site not in OBJECT_SITES:
+        spec = BY_VALUE_NAME.get(name)
+        if spec is None or spec.name not in OBJECT_SITES:
             raise AttributeError(name)
-        value = self._copy(obj.dim, site)[1]
-        return value.bool() if site in ("exists", "occluded") else value
+        value = self._copy(obj.dim, spec.name)[1]
+        return value.bool() if spec.binary else value
 
     def pivot_part_attribute(self, part: PartPivot, name: str):
         if name == "owner":

@@ -14,7 +14,8 @@ import torch
 
 from po3d_ppl.evidence import SceneEvidence
 from po3d_ppl.reasoning.execution import run_program
-from po3d_ppl.reasoning.inference.concrete_world import OBJECT_LATENTS, ConcreteWorld, pose_degrees
+from po3d_ppl.reasoning.inference.concrete_world import ConcreteWorld, pose_degrees
+from po3d_ppl.reasoning.latents import BY_VALUE_NAME
 from po3d_ppl.reasoning.posterior import SitePosteriors
 from po3d_ppl.reasoning.values import INVALID
 
@@ -45,11 +46,11 @@ class PosteriorSampleSource:
         return self.cache[name]
 
     def _sample(self, name: str) -> torch.Tensor:
-        post = self.post
-        if name in OBJECT_LATENTS or name == "occludes":
+        post, spec = self.post, BY_VALUE_NAME[name]
+        if spec.support_field is not None:
+            return pose_degrees(post.support[spec.name], _draw(post.probs[spec.name], self.s, self.gen))
+        if spec.kind in ("object", "pair"):
             return _draw(post.probs[name], self.s, self.gen)
-        if name == "pose_degree":
-            return pose_degrees(post.support["pose"], _draw(post.probs["pose"], self.s, self.gen))
         # part slots of each sample's subtype: compare one uniform per slot with the cdf's k-th column, gathered
         # by subtype one column at a time (never materialising [S, N, P, ..., K])
         subtype = self("subtype")  # [S, N]
