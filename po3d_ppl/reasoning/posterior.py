@@ -14,10 +14,11 @@ from dataclasses import dataclass
 import pyro.poutine as poutine
 import torch
 from pyro.infer import config_enumerate
+from pyro.poutine.util import site_is_subsample
 
 from po3d_ppl.errors import Po3dError
 from po3d_ppl.evidence import DTYPE, SceneEvidence, ScenePriors
-from po3d_ppl.reasoning.latents import FIRST_ENUM_DIM, PLATE_DIMS, SITES, element_layout
+from po3d_ppl.reasoning.latents import FIRST_ENUM_DIM, SITES, element_layout
 from po3d_ppl.reasoning.scene_model import scene_model
 
 
@@ -53,7 +54,7 @@ def site_posteriors(evidence: SceneEvidence, priors: ScenePriors = ScenePriors()
     trace = poutine.trace(model).get_trace(evidence, priors)
     trace.compute_log_prob()
     sampled = [name for name, node in trace.nodes.items()
-               if node["type"] == "sample" and not node["is_observed"] and name not in PLATE_DIMS]
+               if node["type"] == "sample" and not node["is_observed"] and not site_is_subsample(node)]
     if sampled != [spec.name for spec in SITES]:
         raise LayoutError(f"the scene model samples {sampled}, but latents.SITES declares "
                              f"{[spec.name for spec in SITES]}: declare every latent once, in model order")
