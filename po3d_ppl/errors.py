@@ -55,3 +55,7 @@ class UnknownNameError(Po3dError, KeyError):
 
     def __str__(self) -> str:  # KeyError would add quotes around the message
         return self.args[0]
+
+
+class DamagedFileError(Po3dError, ValueError):
+    """A file a previous run wrote is truncated or corrupt. The message names the file and how to repair it."""

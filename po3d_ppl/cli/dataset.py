@@ -24,13 +24,20 @@ def build(
     """Render scenes, generate balanced questions and write images, scenes.json, questions/, splits, manifest."""
     from rich.console import Console
 
+    from po3d_ppl.cli._common import check_seed
     from po3d_ppl.questions.dataset import BuildConfig, build_dataset
 
+    check_seed(seed)
     config = BuildConfig(scenes=scenes, seed=seed, width=width, height=height, height_depth=height_depth)
-    report = build_dataset(out, config, workers=workers, progress=True)
+    notes = Console(stderr=True)
+    report = build_dataset(out, config, workers=workers, progress=True,
+                           notify=lambda note: notes.print(f"repair: {note}", markup=False, highlight=False,
+                                                           soft_wrap=True))
     counts = report.manifest["counts"]["questions"]
-    Console().print(f"{out}: {config.scenes} scenes ({report.built} built, {report.skipped} already done), "
-                    + ", ".join(f"{n} {name}" for name, n in counts.items()) + " questions")
+    repaired = f", {len(report.repaired)} of them damaged and rebuilt" if report.repaired else ""
+    Console().print(f"{out}: {config.scenes} scenes ({report.built} built{repaired}, {report.skipped} already "
+                    "done), " + ", ".join(f"{n} {name}" for name, n in counts.items()) + " questions",
+                    markup=False, highlight=False)
 
 
 @dataset_app.command("stats")
@@ -39,16 +46,18 @@ def stats(directory: Path = typer.Argument(..., help="A built dataset directory.
     from rich.console import Console
     from rich.table import Table
 
+    from po3d_ppl.cli._common import literal
     from po3d_ppl.questions.dataset import load_dataset
     from po3d_ppl.questions.stats import family_stats
 
     data = load_dataset(directory)
-    table = Table(title=f"{directory}: {len(data.public_scenes)} scenes")
+    table = Table(title=literal(f"{directory}: {len(data.public_scenes)} scenes"))
     for col in ("set", "template", "family", "questions", "answers", "entropy (bits)", "top answer", "top share"):
         table.add_column(col, justify="right" if col not in ("set", "template", "top answer") else "left")
     for row in family_stats(data.questions):
-        table.add_row(row.question_set, row.template_filename, str(row.family), str(row.count),
-                      str(row.distinct_answers), f"{row.entropy_bits:.2f}", row.top_answer, f"{row.top_share:.0%}")
+        table.add_row(*map(literal, (row.question_set, row.template_filename, row.family, row.count,
+                                     row.distinct_answers, f"{row.entropy_bits:.2f}", row.top_answer,
+                                     f"{row.top_share:.0%}")))
     Console().print(table)
 
 

@@ -9,11 +9,14 @@ Layout of a build directory::
     splits.json                         {"train": [...], "val": [...], "test": [...]} image indices
     manifest.json                       version, seed, config, counts
     work/scene_%06d.json.gz             per-scene intermediate: public scene + candidate questions (JSON lines)
+    work/scene_%06d.sha256              sha256 of the scene's work file and image (JSON), the completion marker
 
 Design:
 - Scene i is generated from ``SeedSequence([seed, i])``, independently of every other scene, by any worker.
-  Its work file is the completion marker, written last and atomically, so a killed build resumes where it
-  stopped and never reads a half-written file.
+  Its checksum file is the completion marker, written last and atomically, so a killed build resumes where it
+  stopped and never reads a half-written file. A resumed build checks every finished scene against its
+  checksums (files truncated or changed by a full disk, a crash or a copy) and rebuilds the damaged ones.
+- Workers end with the build process, however it ends (``PR_SET_PDEATHSIG`` on Linux, a watchdog thread).
 - Answers are balanced across the whole build (:mod:`po3d_ppl.questions.balance`), which needs scenes in order:
   workers only produce candidates; the final files are assembled sequentially from the work files (cheap), so
   the output is byte-identical whatever the number of workers or interruptions.
@@ -22,12 +25,18 @@ Design:
 
 from __future__ import annotations
 
+import ctypes
 import dataclasses
 import gzip
+import hashlib
 import json
 import math
 import os
+import signal
+import sys
+import threading
 import time
+import zlib
 from collections import Counter
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -38,7 +47,7 @@ from pathlib import Path
 import numpy as np
 
 import po3d_ppl
-from po3d_ppl.errors import InputError, Po3dError
+from po3d_ppl.errors import DamagedFileError, InputError, Po3dError
 from po3d_ppl.questions.balance import AnswerBalancer
 from po3d_ppl.questions.generator import Candidate
 from po3d_ppl.questions.question_sets import question_sets
@@ -168,8 +177,83 @@ def image_path(root: Path, index: int) -> Path:
     return root / "images" / IMAGE_PATTERN.format(index)
 
 
-def _scene_done(root: Path, index: int) -> bool:
-    return work_path(root, index).is_file() and image_path(root, index).is_file()
+def checksum_path(root: Path, index: int) -> Path:
+    return root / "work" / f"scene_{index:06d}.sha256"
+
+
+def _sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def _relative(root: Path, path: Path) -> str:
+    return path.relative_to(root).as_posix()
+
+
+def _scene_files(root: Path, index: int) -> tuple[Path, Path]:
+    """The files a finished scene consists of (its checksum file excluded)."""
+    return image_path(root, index), work_path(root, index)
+
+
+def _write_checksums(root: Path, index: int, contents: dict[Path, bytes]) -> None:
+    digests = {_relative(root, path): _sha256(data) for path, data in sorted(contents.items())}
+    atomic_write_bytes(checksum_path(root, index), (json.dumps(digests, indent=1) + "\n").encode())
+
+
+def _damage(root: Path, index: int) -> str | None:
+    """Why the finished scene ``index`` cannot be used (a file missing, or not matching its stored sha256), or
+    None when it is intact. Raises FileNotFoundError when the scene was never finished (no checksum file)."""
+    try:
+        stored = json.loads(checksum_path(root, index).read_text(encoding="utf-8"))
+        if not isinstance(stored, dict):
+            raise ValueError("not a JSON object")
+    except (UnicodeDecodeError, ValueError) as exc:
+        return f"{_relative(root, checksum_path(root, index))} is unreadable ({exc})"
+    for path in _scene_files(root, index):
+        name = _relative(root, path)
+        if not path.is_file():
+            return f"{name} is missing"
+        if stored.get(name) != _sha256(path.read_bytes()):
+            return f"{name} does not match its sha256 (truncated or changed)"
+    return None
+
+
+def _unchecked_damage(root: Path, index: int) -> str | None:
+    """For a scene whose work file exists without a checksum file (killed just before writing it, or built
+    before checksums were stored): why it cannot be used, or None after decoding its work file and image in
+    full and storing their checksums."""
+    import cv2
+
+    image, work = _scene_files(root, index)
+    if not image.is_file():
+        return f"{_relative(root, image)} is missing"
+    try:
+        _read_work(root, index)
+    except DamagedFileError:
+        return f"{_relative(root, work)} does not decode (truncated or changed)"
+    data = {image: image.read_bytes(), work: work.read_bytes()}
+    if cv2.imdecode(np.frombuffer(data[image], np.uint8), cv2.IMREAD_UNCHANGED) is None:
+        return f"{_relative(root, image)} does not decode (truncated or changed)"
+    _write_checksums(root, index, data)
+    return None
+
+
+def _survey(root: Path, scenes: int) -> tuple[list[int], list[str]]:
+    """(scenes still to build, why each damaged one among them is rebuilt). The files of a damaged scene are
+    removed, so that a build killed while rebuilding it cannot take them for finished ones."""
+    pending, repairs = [], []
+    for index in range(scenes):
+        try:
+            reason = _damage(root, index)
+        except FileNotFoundError:  # no checksum file: never finished, or finished before checksums
+            reason = _unchecked_damage(root, index) if work_path(root, index).is_file() else ""
+        if reason is None:
+            continue
+        if reason:
+            for path in (checksum_path(root, index), *_scene_files(root, index)):
+                path.unlink(missing_ok=True)
+            repairs.append(f"scene {index}: {reason}")
+        pending.append(index)
+    return pending, repairs
 
 
 @dataclass
@@ -194,7 +278,8 @@ def build_scene(root: Path, config: BuildConfig, index: int) -> SceneTiming:
     ok, png = cv2.imencode(".png", cv2.cvtColor(rendered.image, cv2.COLOR_RGB2BGR))
     if not ok:
         raise RuntimeError(f"scene {index}: PNG encoding failed")
-    atomic_write_bytes(image_path(root, index), png.tobytes())
+    image = png.tobytes()
+    atomic_write_bytes(image_path(root, index), image)
     rendered_at = time.perf_counter()
     sets = question_sets(config.height_depth).values()
     found = scene_candidates(scene, question_seed, families_of(sets), redundancy=config.redundancy)
@@ -202,7 +287,9 @@ def build_scene(root: Path, config: BuildConfig, index: int) -> SceneTiming:
     record = _dumps(scene_to_public(scene)) + "\n" + _dumps(
         [[f, i, [c.to_record() for c in cands]] for (f, i), cands in found.items()]) + "\n"
     done = time.perf_counter()
-    atomic_write_bytes(work_path(root, index), gzip.compress(record.encode(), mtime=0))
+    work = gzip.compress(record.encode(), mtime=0)
+    atomic_write_bytes(work_path(root, index), work)
+    _write_checksums(root, index, {image_path(root, index): image, work_path(root, index): work})
     return SceneTiming(rendered_at - start, done - rendered_at, sum(len(c) for c in found.values()))
 
 
@@ -215,15 +302,25 @@ def _build_scene_task(root: Path, config: BuildConfig, index: int) -> SceneTimin
         return build_scene(root, config, index)
     except Po3dError as exc:  # re-raised as a plain message: typed errors with extra fields do not unpickle
         raise SceneBuildError(f"scene {index}: {exc}") from None
+    except Exception as exc:  # a bug or the system (disk full): keep the traceback, and say which scene failed
+        exc.add_note(f"while building scene {index} in {root}")
+        raise
 
 
 def _read_work(root: Path, index: int) -> tuple[str, list]:
-    """(public scene as JSON text, candidate records) of a finished scene."""
-    scene_text, _, candidates = gzip.decompress(work_path(root, index).read_bytes()).decode().partition("\n")
-    if not candidates.strip():  # the first work format, one object: {"scene", "candidates"} (builds in progress)
-        record = json.loads(scene_text)
-        return _dumps(record["scene"]), record["candidates"]
-    return scene_text, json.loads(candidates)
+    """(public scene as JSON text, candidate records) of a finished scene. A work file that does not decode in
+    full (gzip checks its CRC and length) is a :class:`DamagedFileError` naming it."""
+    path = work_path(root, index)
+    try:
+        scene_text, _, candidates = gzip.decompress(path.read_bytes()).decode().partition("\n")
+        if not candidates.strip():  # the first work format, one object: {"scene", "candidates"} (old builds)
+            record = json.loads(scene_text)
+            return _dumps(record["scene"]), record["candidates"]
+        json.loads(scene_text)
+        return scene_text, json.loads(candidates)
+    except (OSError, EOFError, zlib.error, UnicodeDecodeError, ValueError, KeyError, TypeError) as exc:
+        raise DamagedFileError(f"{path} is damaged ({type(exc).__name__}: {exc}); run the same build command "
+                               "again to rebuild that scene") from None
 
 
 # ---- assembly -----------------------------------------------------------------------------------------------------
@@ -280,6 +377,8 @@ class BuildReport:
     built: int
     skipped: int
     timings: list[SceneTiming] = field(default_factory=list)
+    #: why each damaged scene found on resume was rebuilt ("scene 3: work/scene_000003.json.gz is missing")
+    repaired: list[str] = field(default_factory=list)
     assemble_s: float = 0.0
     wall_s: float = 0.0
 
@@ -287,13 +386,28 @@ class BuildReport:
 def _check_config(root: Path, config: BuildConfig) -> None:
     path, wanted = root / "build_config.json", config.to_json()
     if path.is_file():
-        existing = json.loads(path.read_text())
+        existing = _read_build_config(path)
         if existing != wanted:
             diff = sorted(k for k in wanted if existing.get(k) != wanted[k])
             raise InputError("out", f"{root} holds a build with different settings ({', '.join(diff)}); use another "
                                     "directory or the same settings to resume it")
     else:
         atomic_write_bytes(path, (json.dumps(wanted, indent=1) + "\n").encode())
+
+
+def _read_build_config(path: Path) -> dict:
+    """The settings a build directory was started with; a damaged file is a typed error saying how to go on."""
+    try:
+        existing = json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        reason = f"not valid JSON ({exc.msg} at line {exc.lineno})" if isinstance(exc, json.JSONDecodeError) \
+            else "not UTF-8 text"
+    else:
+        if isinstance(existing, dict):
+            return existing
+        reason = f"a JSON {type(existing).__name__}, not an object"
+    raise DamagedFileError(f"{path} is damaged: {reason}; delete it to resume the build with the settings given "
+                           f"now, or delete {path.parent} to start over")
 
 
 def _clean_temporaries(root: Path) -> None:
@@ -304,9 +418,11 @@ def _clean_temporaries(root: Path) -> None:
 
 
 def build_dataset(out: str | os.PathLike, config: BuildConfig, *, workers: int = 1,
-                  progress: Callable[[int, int], None] | bool = False) -> BuildReport:
+                  progress: Callable[[int, int], None] | bool = False,
+                  notify: Callable[[str], None] | None = None) -> BuildReport:
     """Build (or resume) a dataset in ``out``. ``progress`` is True for a rich progress bar, or a callback
-    ``(done, total)``."""
+    ``(done, total)``. ``notify`` is told of every damaged scene found on resume before it is rebuilt (the
+    report lists them too)."""
     if not isinstance(workers, int) or workers < 1:
         raise InputError("workers", f"must be a positive integer, got {workers!r}")
     config.scene_config()  # invalid scene settings fail here, before any directory is made
@@ -318,8 +434,10 @@ def build_dataset(out: str | os.PathLike, config: BuildConfig, *, workers: int =
     _check_config(root, config)
     _clean_temporaries(root)
     start = time.perf_counter()
-    pending = [i for i in range(config.scenes) if not _scene_done(root, i)]
-    report = BuildReport({}, built=len(pending), skipped=config.scenes - len(pending))
+    pending, repaired = _survey(root, config.scenes)
+    for note in repaired if notify is not None else ():
+        notify(f"{note}; rebuilding it")
+    report = BuildReport({}, built=len(pending), skipped=config.scenes - len(pending), repaired=repaired)
     for timing in _run(root, config, pending, workers, progress):
         report.timings.append(timing)
     assembled = time.perf_counter()
@@ -353,14 +471,46 @@ def _run(root: Path, config: BuildConfig, pending: list[int], workers: int,
                 yield _build_scene_task(root, config, index)
                 tick(k + 1)
             return
-        with ProcessPoolExecutor(max_workers=min(workers, total), mp_context=get_context("spawn")) as pool:
+        with ProcessPoolExecutor(max_workers=min(workers, total), mp_context=get_context("spawn"),
+                                 initializer=_end_with_parent, initargs=(os.getpid(),)) as pool:
             futures = [pool.submit(_build_scene_task, root, config, i) for i in pending]
-            for k, future in enumerate(as_completed(futures)):
-                yield future.result()
-                tick(k + 1)
+            try:
+                for k, future in enumerate(as_completed(futures)):
+                    yield future.result()
+                    tick(k + 1)
+            except BaseException:  # a failed scene, Ctrl-C or an abandoned generator: do not render the rest
+                pool.shutdown(wait=False, cancel_futures=True)
+                raise
     finally:
         if bar is not None:
             bar.stop()
+
+
+# ---- workers end with the build --------------------------------------------------------------------------------
+_PR_SET_PDEATHSIG = 1
+_PARENT_POLL_S = 0.5
+
+
+def _end_with_parent(parent: int) -> None:
+    """Pool initializer: end this worker when the build process ends, even by SIGKILL. Otherwise a killed build
+    leaves its workers rendering for nobody, and the multiprocessing resource tracker they hold open."""
+    if sys.platform.startswith("linux"):
+        try:
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(_PR_SET_PDEATHSIG, ctypes.c_ulong(signal.SIGKILL), ctypes.c_ulong(0), ctypes.c_ulong(0),
+                       ctypes.c_ulong(0))
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != parent:  # the build ended before the signal was armed
+        os._exit(1)
+    # the portable fallback, and a second line of defence where prctl is tied to the spawning thread
+    threading.Thread(target=_poll_parent, args=(parent,), name="po3d-parent-watch", daemon=True).start()
+
+
+def _poll_parent(parent: int) -> None:
+    while os.getppid() == parent:
+        time.sleep(_PARENT_POLL_S)
+    os._exit(1)
 
 
 # ---- loading ------------------------------------------------------------------------------------------------------
