@@ -47,7 +47,8 @@ def main() -> None:
                 row = {"scene": index, "file": file_name, "question": q["question"]}
                 for method in args.methods.split(","):
                     try:
-                        dist = reasoner.infer(program, method, num_samples=512)
+                        dist = (reasoner.reference(program, method) if method == "dense"
+                                else reasoner.infer(program, method, num_samples=512))
                     except Exception as error:  # noqa: BLE001 - a refusal is part of the snapshot
                         row[method] = f"refused: {type(error).__name__}"
                         continue

@@ -60,14 +60,14 @@ def _tv(a: AnswerDistribution, b: AnswerDistribution) -> float:
 def test_generic_pyro_path_equals_exact(scene):
     reasoner = SceneReasoner(sparse_random_evidence(scene, np.random.default_rng(5), 8))
     for text in PROGRAMS[:4]:
-        assert _tv(reasoner.infer(text, "exact"), reasoner.infer(text, "generic")) < 1e-9, text
+        assert _tv(reasoner.infer(text, "exact"), reasoner.reference(text, "generic")) < 1e-9, text
 
 
 def test_dense_equals_exact_and_sampling_is_close(scene):
     reasoner = SceneReasoner(sparse_random_evidence(scene, np.random.default_rng(11), 10))
     for text in PROGRAMS:
         exact = reasoner.infer(text, "exact")
-        assert _tv(exact, reasoner.infer(text, "dense")) < 1e-9, text
+        assert _tv(exact, reasoner.reference(text, "dense")) < 1e-9, text
         sampled = reasoner.infer(text, "sampling", num_samples=4096, seed=3)
         assert _tv(exact, sampled) < 0.03, text
         assert sampled.error > 0 and sampled.info["samples"] == 4096
@@ -132,7 +132,7 @@ def test_user_operations_from_the_docs_example_work_everywhere(scene):
         ]:
             user = reasoner.infer(text, "exact")
             assert _tv(user, reasoner.infer(builtin, "exact")) < 1e-12
-            assert _tv(user, reasoner.infer(text, "dense")) < 1e-12
+            assert _tv(user, reasoner.reference(text, "dense")) < 1e-12
             assert _tv(user, reasoner.infer(text, "sampling", num_samples=2048)) < 0.05
         # the optional reference semantics lets the question engine run it too
         result = execute(scene, [{"type": "scene", "inputs": []}, {"type": "filter_shape", "inputs": [0],
@@ -187,5 +187,5 @@ def test_filter_occluder_is_answered_by_sampling_and_matches_the_reference(scene
     assert dist.method == "sampling" and "filter_occluder" in dist.info["fallback"]
     reference = execute(scene, compile_program(program).typed).answer
     assert dist.top == reference and dist.probability(reference) == 1.0
-    assert reasoner.infer(program, "dense").probs == {reference: 1.0}
+    assert reasoner.reference(program, "dense").probs == {reference: 1.0}
     assert reasoner.infer(program, "soft").top == reference

@@ -4,7 +4,9 @@
 :class:`CompiledProgram` whose :meth:`~CompiledProgram.model` is a Pyro model: the scene model's latents, the
 program's operations run on them (vectorised over any enclosing ``pyro.plate``), and a deterministic ``answer``
 site holding the program's output (``values.INVALID`` when the execution is invalid). Every inference method
-answers questions about this model; the exact and sampling engines do so without re-tracing it per sample.
+answers questions about this model; the exact and sampling engines do so without re-tracing it per sample (they
+read the scene model's posterior tables once and run the program on their own latent worlds), and the tests check
+that the model itself answers like them.
 """
 
 from __future__ import annotations
@@ -52,7 +54,7 @@ class CompiledProgram:
 
 def compile_program(program) -> CompiledProgram:
     """Type-check ``program`` and compile it (see the module docstring)."""
-    from po3d_ppl.language import as_typed_program  # the language stage imports the registry from this package
+    from po3d_ppl.language import as_typed_program
 
     typed = as_typed_program(program)
     if typed.type not in ANSWER_TYPES:

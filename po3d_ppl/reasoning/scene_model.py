@@ -10,9 +10,11 @@ hypothesis ``subtype[i]``. This "switch" keeps every latent independent a poster
 site), which the exact engine checks and relies on; the subtype's posterior comes from the subtype evidence, which
 perception computes from the same projected meshes.
 
-Every inference method derives from this function through Pyro's handlers: the exact engine traces it under
-``poutine.enum`` to read each site's posterior table; sampling draws from it with ``infer_discrete``; the generic
-reference path hands it to ``TraceEnum_ELBO``.
+Every inference method derives from this function through one Pyro handler: it is traced once under
+``poutine.enum`` (:mod:`po3d_ppl.reasoning.posterior`) and each site's posterior table read off the trace. The exact
+engine contracts those tables with the program's constraints, sampling draws from them site by site (exact
+ancestral sampling, since the sites are independent a posteriori), and the generic reference path rebuilds the
+same factor graph as a Pyro model for ``TraceEnum_ELBO``.
 
 The sites, their plates and supports are declared in :mod:`po3d_ppl.reasoning.latents` (the posterior tables
 check that the trace samples exactly those); plate dims: parts -1, objects -2, subtype hypotheses -3, occluders -4.

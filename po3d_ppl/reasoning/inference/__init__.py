@@ -5,13 +5,13 @@ enumerated trace) and answers any number of programs:
 
 - ``exact``: lifted enumeration with pivots and running-state chains (``exact.py``), polynomial in the number of
   objects;
-- ``dense``: every joint assignment at once (``dense.py``), for small scenes and cross-checks;
 - ``sampling``: vectorised posterior samples (``sampling.py``) with standard errors;
 - ``auto``: ``exact`` unless its tensors would exceed ``AUTO_EXACT_ELEMENTS`` (beyond which sampling is faster) or
   the program needs a structure it does not support, then ``sampling`` (the reason is recorded in ``info``);
-- ``generic``: Pyro's ``TraceEnum_ELBO.compute_marginals`` on the same factor graph (``generic.py``), a slow
-  reference for benchmarks and cross-checks;
 - ``thresholded`` and ``soft``: the NS-VQA and P-NSVQA baselines (``baselines.py``).
+
+The reference implementations ``dense`` and ``generic`` (``reference/``) are reached through
+:meth:`SceneReasoner.reference`, for tests and benchmarks.
 """
 
 from __future__ import annotations
@@ -23,9 +23,10 @@ from po3d_ppl.evidence import SceneEvidence, ScenePriors
 from po3d_ppl.reasoning import values
 from po3d_ppl.reasoning.answer import AnswerDistribution
 from po3d_ppl.reasoning.compiler import CompiledProgram, compile_program
+from po3d_ppl.reasoning.inference.reference import REFERENCE_METHODS
 from po3d_ppl.reasoning.posterior import SitePosteriors, site_posteriors
 
-METHODS = ("auto", "exact", "sampling", "dense", "generic", "thresholded", "soft")
+METHODS = ("auto", "exact", "sampling", "thresholded", "soft")
 #: ``auto`` answers exactly while the exact engine's largest tensor stays under this many elements (measured: past
 #: a few million elements exact takes longer than 4,096 samples on one core).
 AUTO_EXACT_ELEMENTS = 2e6
@@ -54,6 +55,13 @@ class SceneReasoner:
         compiled = program if isinstance(program, CompiledProgram) else compile_program(program)
         run = getattr(self, f"_{method}")
         return run(compiled, num_samples=num_samples, seed=seed)
+
+    def reference(self, program, method: str) -> AnswerDistribution:
+        """The answer by a reference implementation (``dense`` or ``generic``), to cross-check the exact engine."""
+        if method not in REFERENCE_METHODS:
+            raise UnknownNameError("reference method", method, REFERENCE_METHODS)
+        compiled = program if isinstance(program, CompiledProgram) else compile_program(program)
+        return getattr(self, f"_{method}")(compiled)
 
     def answer_question(self, question: str, parser=None, *, n_best: int = 3, method: str = "auto",
                         num_samples: int = 4096, seed: int = 0):
@@ -89,7 +97,7 @@ class SceneReasoner:
         return self._distribution(compiled, result.probs, result.invalid, "exact", peak_elements=result.peak_elements)
 
     def _dense(self, compiled, **_):
-        from po3d_ppl.reasoning.inference.dense import dense_distribution
+        from po3d_ppl.reasoning.inference.reference.dense import dense_distribution
 
         probs, invalid, count = dense_distribution(compiled.typed, self.posteriors, self.evidence,
                                                    len(self._support(compiled)))
@@ -118,7 +126,7 @@ class SceneReasoner:
             return dist
 
     def _generic(self, compiled, **_):
-        from po3d_ppl.reasoning.inference.generic import generic_distribution
+        from po3d_ppl.reasoning.inference.reference.generic import generic_distribution
 
         probs, invalid = generic_distribution(compiled.typed, self.posteriors, self.evidence,
                                               len(self._support(compiled)))

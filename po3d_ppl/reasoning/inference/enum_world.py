@@ -10,8 +10,8 @@ add *global* dimensions:
 - reading an attribute of a pivot adds a *copy* dimension tied to the pivot object's own latent;
 - ``count``/``exist`` add an aggregate dimension whose distribution a running-state chain over objects computes
   (:mod:`po3d_ppl.reasoning.inference.exact`);
-- ``part2object`` of a part set adds a per-object *witness* (the first member part), which keeps "some part is in
-  the set" a product over part slots.
+- ``part2object`` of a part set (and ``exist`` of one) adds a per-object flag R = "some part of the object is in
+  the set", constrained by inclusion-exclusion over products over part slots (``exact._Contractor.masses``).
 
 The answer is then a contraction: per object, sum its local dimensions (parts inside a product over slots); take
 the product over objects; sum the global dimensions. Every factor is a posterior table read from the scene model
