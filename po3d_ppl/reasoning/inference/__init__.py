@@ -63,18 +63,6 @@ class SceneReasoner:
         compiled = program if isinstance(program, CompiledProgram) else compile_program(program)
         return getattr(self, f"_{method}")(compiled)
 
-    def answer_question(self, question: str, parser=None, *, n_best: int = 3, method: str = "auto",
-                        num_samples: int = 4096, seed: int = 0):
-        """(answer distribution marginalised over the parser's n-best programs, the parse)."""
-        if parser is None:
-            from po3d_ppl.language import QuestionParser
-
-            parser = QuestionParser.load()
-        parse = parser.parse(question, n=n_best)
-        weighted = [(c.probability, self.infer(c.program, method, num_samples=num_samples, seed=seed))
-                    for c in parse.candidates]
-        return AnswerDistribution.mixture(weighted, method=method), parse
-
     # ---- methods -------------------------------------------------------------------------------------------------
     def _support(self, compiled: CompiledProgram) -> list:
         return values.support(compiled.answer_type, self.evidence.num_objects)
