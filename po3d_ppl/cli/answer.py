@@ -31,8 +31,9 @@ def answer(
 
     from po3d_ppl.cli._common import check_seed, load_scene_arg, read_program_arg
     from po3d_ppl.errors import InputError
-    from po3d_ppl.reasoning import SceneReasoner
     from po3d_ppl.perception import simulated_evidence
+    from po3d_ppl.pipeline import answer_question
+    from po3d_ppl.reasoning import SceneReasoner
 
     check_seed(seed)
     if (question is None) == (program is None):
@@ -46,7 +47,7 @@ def answer(
     if program is not None:
         dist = reasoner.infer(read_program_arg(program, allow_text=True), method, num_samples=samples, seed=seed)
     else:
-        dist, parse = reasoner.answer_question(question, n_best=n_best, method=method, num_samples=samples, seed=seed)
+        dist, parse = answer_question(reasoner, question, n_best=n_best, method=method, num_samples=samples, seed=seed)
     console = Console()
     if as_json:
         out = dist.to_dict()

@@ -32,9 +32,10 @@ def demo(
     from po3d_ppl.cli._common import check_seed, literal
     from po3d_ppl.errors import InputError
     from po3d_ppl.language import QuestionParser, program_to_text
+    from po3d_ppl.perception import simulated_evidence
+    from po3d_ppl.pipeline import answer_question
     from po3d_ppl.questions.scene_questions import generate_questions
     from po3d_ppl.reasoning import SceneReasoner
-    from po3d_ppl.perception import simulated_evidence
     from po3d_ppl.world import generate_scene, save_scene
 
     check_seed(seed)
@@ -65,7 +66,7 @@ def demo(
         table.add_column(column)
     report = []
     for name, q in picked:
-        dist, parse = reasoner.answer_question(q["question"], parser, method=method)
+        dist, parse = answer_question(reasoner, q["question"], parser, method=method)
         top = ", ".join(f"{dist.words(a)} {p:.2f}" for a, p in list(dist.probs.items())[:3])
         if dist.invalid > 0.005:
             top += f", (invalid) {dist.invalid:.2f}"
