@@ -15,7 +15,6 @@ Conventions:
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
 from functools import cache
 from importlib import resources
 from types import MappingProxyType
@@ -238,35 +237,3 @@ def pose_relation(reference_degree: float, reference_label: str, other_degree: f
     if diff > 135.0:
         return "opposite"
     return "vertical"
-
-
-@dataclass(frozen=True)
-class PartSlot:
-    """One part of one subtype: its id, raw name and the names used in questions."""
-
-    subtype: str
-    index: int
-    raw: str
-
-    @property
-    def super_name(self) -> str:
-        return super_part_name(self.raw)
-
-    @property
-    def words(self) -> str:
-        return readable_name(self.raw)
-
-
-@cache
-def part_slots(subtype: str) -> tuple[PartSlot, ...]:
-    return tuple(PartSlot(subtype, i, n) for i, n in enumerate(PARTS[subtype]))
-
-
-def check_value(value_type: str, value: str) -> str:
-    """Return ``value`` if it belongs to ``value_type``'s vocabulary, else raise with the closest names."""
-    vocab = VALUE_VOCABULARY.get(value_type)
-    if vocab is None:
-        raise UnknownNameError("value type", value_type, VALUE_VOCABULARY)
-    if value not in vocab:
-        raise UnknownNameError(f"{value_type} value", value, vocab)
-    return value
