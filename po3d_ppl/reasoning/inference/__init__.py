@@ -18,6 +18,8 @@ from __future__ import annotations
 
 from functools import cached_property
 
+import torch
+
 from po3d_ppl.errors import UnknownNameError
 from po3d_ppl.evidence import SceneEvidence, ScenePriors
 from po3d_ppl.reasoning import values
@@ -41,27 +43,36 @@ class SceneReasoner:
 
     @cached_property
     def posteriors(self) -> SitePosteriors:
-        return site_posteriors(self.evidence, self.priors)
+        with self._device():
+            return site_posteriors(self.evidence, self.priors)
 
     @cached_property
     def _soft_rules(self):
         from po3d_ppl.reasoning.inference.baselines import soft_rules
 
-        return soft_rules(self.posteriors, self.evidence)
+        with self._device():
+            return soft_rules(self.posteriors, self.evidence)
+
+    def _device(self) -> torch.device:
+        """Inference runs on the evidence's device: every tensor the engines create lands there (``torch.device``
+        as a context manager sets the default device of factory functions)."""
+        return torch.device(self.evidence.exist_logodds.device)
 
     def infer(self, program, method: str = "auto", *, num_samples: int = 4096, seed: int = 0) -> AnswerDistribution:
         if method not in METHODS:
             raise UnknownNameError("inference method", method, METHODS)
         compiled = program if isinstance(program, CompiledProgram) else compile_program(program)
         run = getattr(self, f"_{method}")
-        return run(compiled, num_samples=num_samples, seed=seed)
+        with self._device():
+            return run(compiled, num_samples=num_samples, seed=seed)
 
     def reference(self, program, method: str) -> AnswerDistribution:
         """The answer by a reference implementation (``dense`` or ``generic``), to cross-check the exact engine."""
         if method not in REFERENCE_METHODS:
             raise UnknownNameError("reference method", method, REFERENCE_METHODS)
         compiled = program if isinstance(program, CompiledProgram) else compile_program(program)
-        return getattr(self, f"_{method}")(compiled)
+        with self._device():
+            return getattr(self, f"_{method}")(compiled)
 
     # ---- methods -------------------------------------------------------------------------------------------------
     def _support(self, compiled: CompiledProgram) -> list:
@@ -121,8 +132,6 @@ class SceneReasoner:
         return self._distribution(compiled, probs, invalid, "generic")
 
     def _thresholded(self, compiled, **_):
-        import torch
-
         from po3d_ppl.reasoning.inference.baselines import thresholded_answer
 
         answer = thresholded_answer(compiled.typed, self.posteriors, self.evidence)

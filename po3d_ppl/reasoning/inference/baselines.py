@@ -19,7 +19,7 @@ import torch
 
 from po3d_ppl import ontology
 from po3d_ppl.errors import Po3dError
-from po3d_ppl.evidence import DTYPE, STATE_COLOR, STATE_MATERIAL, SceneEvidence
+from po3d_ppl.evidence import DTYPE, SceneEvidence
 from po3d_ppl.language.interpret import interpret
 from po3d_ppl.reasoning import values
 from po3d_ppl.reasoning.execution import run_program
@@ -64,8 +64,9 @@ class _Marginals:
                                       torch.nn.functional.one_hot(names.clamp(min=0), len(ontology.RAW_PART_NAMES))
                                       .to(DTYPE) * (names >= 0).unsqueeze(-1))
         state = torch.einsum("ns,nspk->npk", sub, p["part_state"])  # [N, P, 18]
-        self.part_color = torch.stack([(state * (STATE_COLOR == c)).sum(-1) for c in range(len(ontology.COLORS))], -1)
-        self.part_material = torch.stack([(state * (STATE_MATERIAL == m)).sum(-1)
+        self.part_color = torch.stack([(state * (values.state_color() == c)).sum(-1)
+                                       for c in range(len(ontology.COLORS))], -1)
+        self.part_material = torch.stack([(state * (values.state_material() == m)).sum(-1)
                                           for m in range(len(ontology.MATERIALS))], -1)
         self.part_recoloured = self.part_color.sum(-1) * self.part_valid
         self.part_occluded = torch.einsum("ns,nsp->np", sub, p["part_occluded"][..., 1]) * self.part_valid

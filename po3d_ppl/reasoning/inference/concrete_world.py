@@ -21,7 +21,6 @@ from functools import cached_property
 
 import torch
 
-from po3d_ppl.evidence import STATE_COLOR, STATE_MATERIAL
 from po3d_ppl.reasoning import values
 from po3d_ppl.reasoning.latents import BY_VALUE_NAME, MODELS_AXIS, SITE
 from po3d_ppl.reasoning.world import LatentWorld
@@ -127,11 +126,11 @@ class ConcreteWorld(LatentWorld):
 
     @cached_property
     def part_color(self):
-        return STATE_COLOR[self.latent("part_state").long()]
+        return values.state_color()[self.latent("part_state").long()]
 
     @cached_property
     def part_material(self):
-        return STATE_MATERIAL[self.latent("part_state").long()]
+        return values.state_material()[self.latent("part_state").long()]
 
     @property
     def part_occluded(self):

@@ -26,7 +26,7 @@ import torch
 
 from po3d_ppl import ontology
 from po3d_ppl.errors import Po3dError
-from po3d_ppl.evidence import STATE_COLOR, STATE_MATERIAL, SceneEvidence
+from po3d_ppl.evidence import SceneEvidence
 from po3d_ppl.reasoning import values
 from po3d_ppl.reasoning.inference.sop import Sop
 from po3d_ppl.reasoning.latents import BY_VALUE_NAME, OBJECT_SITES
@@ -210,11 +210,11 @@ class EnumWorld(LatentWorld):
 
     @property
     def part_color(self):
-        return STATE_COLOR[self._part_values("part_state")]
+        return values.state_color()[self._part_values("part_state")]
 
     @property
     def part_material(self):
-        return STATE_MATERIAL[self._part_values("part_state")]
+        return values.state_material()[self._part_values("part_state")]
 
     @property
     def part_occluded(self):
@@ -325,11 +325,12 @@ class EnumWorld(LatentWorld):
             return self._part_copy(part, "part_occluded")[1]
         state = self._part_copy(part, "part_state")[1]
         if name == "color":
-            return STATE_COLOR[state]
+            return values.state_color()[state]
         if name == "material":
-            return STATE_MATERIAL[state]
+            return values.state_material()[state]
         if name == "size":
-            ok = (self.pivot_part_attribute(part, "name") != values.INVALID) & (STATE_COLOR[state] != values.INVALID)
+            named = self.pivot_part_attribute(part, "name") != values.INVALID
+            ok = named & (values.state_color()[state] != values.INVALID)
             return torch.where(ok, self.pivot_attribute(ObjectPivot(part.owner), "size"), values.INVALID)
         raise AttributeError(name)
 

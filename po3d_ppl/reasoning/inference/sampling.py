@@ -27,9 +27,15 @@ def _inverse_cdf(probs: torch.Tensor, uniform: torch.Tensor) -> torch.Tensor:
     return index.clamp(max=probs.shape[-1] - 1)  # guard against rounding at the top of the cdf
 
 
+def _uniform(shape: tuple[int, ...], generator: torch.Generator, like: torch.Tensor) -> torch.Tensor:
+    """Uniforms drawn on the CPU (the seeded generator's device) and moved to ``like``'s device, so a seed gives the
+    same samples on every device."""
+    return torch.rand(shape, generator=generator, dtype=like.dtype, device="cpu").to(like.device)
+
+
 def _draw(probs: torch.Tensor, num_samples: int, generator: torch.Generator) -> torch.Tensor:
     """Indices ``[S, *batch]`` drawn from ``probs [*batch, K]`` (one draw per batch element and sample)."""
-    uniform = torch.rand((num_samples, *probs.shape[:-1]), generator=generator, dtype=probs.dtype)
+    uniform = _uniform((num_samples, *probs.shape[:-1]), generator, probs)
     return _inverse_cdf(probs, uniform)
 
 
@@ -57,7 +63,7 @@ class PosteriorSampleSource:
         table = post.probs[name]  # [N, 21, P, ..., K]
         cdf = table.cumsum(-1)
         objects = torch.arange(table.shape[0])
-        uniform = torch.rand((self.s, *table.shape[:1], *table.shape[2:-1]), generator=self.gen, dtype=table.dtype)
+        uniform = _uniform((self.s, *table.shape[:1], *table.shape[2:-1]), self.gen, table)
         index = torch.zeros(uniform.shape, dtype=torch.long)
         for k in range(table.shape[-1] - 1):
             index += uniform >= cdf[..., k][objects, subtype]
@@ -74,7 +80,7 @@ class SampledResult:
 
 def sample_distribution(typed, posteriors: SitePosteriors, evidence: SceneEvidence, num_values: int,
                         num_samples: int = 4096, seed: int = 0) -> SampledResult:
-    generator = torch.Generator().manual_seed(seed)
+    generator = torch.Generator(device="cpu").manual_seed(seed)
     source = PosteriorSampleSource(posteriors, num_samples, generator)
     world = ConcreteWorld(source, (num_samples,), evidence.num_objects, evidence.positions, evidence.depths,
                           evidence.directions)

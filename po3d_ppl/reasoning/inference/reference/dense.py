@@ -96,7 +96,8 @@ def dense_distribution(typed, post: SitePosteriors, evidence: SceneEvidence, num
         weights = weights * probs[choice]
 
     # 3. run the program on every assignment at once
-    world = ConcreteWorld(lambda name: object_centric(name, batch.__getitem__, evidence_supports(evidence)), (count,), n,
+    supports = evidence_supports(evidence)
+    world = ConcreteWorld(lambda name: object_centric(name, batch.__getitem__, supports), (count,), n,
                           evidence.positions, evidence.depths, evidence.directions)
     value = run_program(typed, world).expand(count, 1, 1).reshape(count)
     valid = world.valid & (value != INVALID)

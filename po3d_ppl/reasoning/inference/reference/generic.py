@@ -2,8 +2,8 @@
 factor graph the exact engine contracts.
 
 The program is first run on an :class:`EnumWorld`, which yields the factor graph: the posterior tables of the latent
-sites it reads, the constraint factors of its pivots and copies, its "some part" flags and its counts. Here that graph is
-written as an ordinary Pyro model - global guesses as enumerated sites, then ``pyro.markov`` over objects with each
+sites it reads, the constraint factors of its pivots and copies, its "some part" flags and its counts. Here that
+graph is written as an ordinary Pyro model - global guesses as enumerated sites, then ``pyro.markov`` over objects with each
 object's latents, a ``pyro.plate`` over part slots, the factors as ``pyro.factor`` and counts as running-state
 sites - and handed to ``TraceEnum_ELBO``. It is exact and general but pays Pyro's per-site machinery for every
 object, which is the baseline the exact engine's benchmark compares against.
