@@ -6,29 +6,15 @@ from hypothesis import strategies as st
 
 from po3d_ppl.catalogue import Operation, OperationRegistry, value_vocabulary
 from po3d_ppl.language.ast import Node, Program
+from po3d_ppl.language.random_programs import min_depths
 from po3d_ppl.language.typecheck import default_registry
-
-
-def _min_depth(registry: OperationRegistry) -> dict[str, int]:
-    """Smallest program depth that produces each type (fixed point over the signatures)."""
-    depth: dict[str, int] = {}
-    changed = True
-    while changed:
-        changed = False
-        for op in registry:
-            if all(t in depth for t in op.inputs):
-                d = 1 + max((depth[t] for t in op.inputs), default=0)
-                if d < depth.get(op.output, 1 << 30):
-                    depth[op.output] = d
-                    changed = True
-    return depth
 
 
 @st.composite
 def programs(draw, registry: OperationRegistry | None = None, max_depth: int = 6, share: bool = True) -> Program:
     """A random well-typed program; with ``share`` some sub-programs are reused (a DAG)."""
     registry = registry or default_registry()
-    depth = _min_depth(registry)
+    depth = min_depths(registry)
     nodes: list[Node] = []
     by_type: dict[str, list[int]] = {}
 

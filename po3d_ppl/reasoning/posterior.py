@@ -19,7 +19,7 @@ from pyro.poutine.util import site_is_subsample
 from po3d_ppl.errors import Po3dError
 from po3d_ppl.evidence import DTYPE, SceneEvidence, ScenePriors
 from po3d_ppl.reasoning.latents import FIRST_ENUM_DIM, SITES, element_layout
-from po3d_ppl.reasoning.scene_model import scene_model
+from po3d_ppl.reasoning.scene_model import check_not_empty, scene_model
 
 
 class LayoutError(Po3dError):
@@ -50,6 +50,7 @@ def _enum_dim(shape: torch.Size) -> list[int]:
 
 def site_posteriors(evidence: SceneEvidence, priors: ScenePriors = ScenePriors()) -> SitePosteriors:
     """Per-site posterior tables of ``scene_model(evidence, priors)``."""
+    check_not_empty(evidence)  # before tracing: pyro appends its trace-shape dump to errors raised in a model
     model = poutine.enum(config_enumerate(scene_model, default="parallel"), first_available_dim=FIRST_ENUM_DIM)
     trace = poutine.trace(model).get_trace(evidence, priors)
     trace.compute_log_prob()

@@ -51,12 +51,16 @@ class EmptyEvidenceError(Po3dError, NotImplementedError):
     tables assume at least one object)."""
 
 
-def scene_model(evidence: SceneEvidence, priors: ScenePriors = ScenePriors()) -> dict[str, torch.Tensor]:
-    """Sample a latent scene conditioned on ``evidence``. Returns the latent values by site name."""
-    n = evidence.num_objects
-    if n == 0:
+def check_not_empty(evidence: SceneEvidence) -> None:
+    if evidence.num_objects == 0:
         raise EmptyEvidenceError("the evidence has no object proposals; reasoning over an empty scene is not "
                                  "implemented yet (every program needs at least one proposal)")
+
+
+def scene_model(evidence: SceneEvidence, priors: ScenePriors = ScenePriors()) -> dict[str, torch.Tensor]:
+    """Sample a latent scene conditioned on ``evidence``. Returns the latent values by site name."""
+    check_not_empty(evidence)
+    n = evidence.num_objects
     uniform = lambda size: torch.full((size,), 1.0 / size, dtype=DTYPE)  # noqa: E731
     latents: dict[str, torch.Tensor] = {}
     occluders = pyro.plate("occluders", n, dim=PLATE_DIMS["occluders"])

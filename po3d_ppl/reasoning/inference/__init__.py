@@ -16,14 +16,17 @@ The reference implementations ``dense`` and ``generic`` (``reference/``) are rea
 
 from __future__ import annotations
 
+import time
 from functools import cached_property
 
 import torch
 
-from po3d_ppl.errors import UnknownNameError
+from po3d_ppl import ontology
+from po3d_ppl.errors import InputError, UnknownNameError
 from po3d_ppl.evidence import SceneEvidence, ScenePriors
 from po3d_ppl.reasoning import values
 from po3d_ppl.reasoning.answer import AnswerDistribution
+from po3d_ppl.reasoning.budget import Budget, BudgetExceeded, enforce
 from po3d_ppl.reasoning.compiler import CompiledProgram, compile_program
 from po3d_ppl.reasoning.inference.reference import REFERENCE_METHODS
 from po3d_ppl.reasoning.posterior import SitePosteriors, site_posteriors
@@ -32,6 +35,8 @@ METHODS = ("auto", "exact", "sampling", "thresholded", "soft")
 #: ``auto`` answers exactly while the exact engine's largest tensor stays under this many elements (measured: past
 #: a few million elements exact takes longer than 4,096 samples on one core).
 AUTO_EXACT_ELEMENTS = 2e6
+#: Share of the call's time budget ``auto`` gives exact inference before it falls back to sampling.
+AUTO_EXACT_TIME_SHARE = 0.5
 
 
 class SceneReasoner:
@@ -58,25 +63,34 @@ class SceneReasoner:
         as a context manager sets the default device of factory functions)."""
         return torch.device(self.evidence.exist_logodds.device)
 
-    def infer(self, program, method: str = "auto", *, num_samples: int = 4096, seed: int = 0) -> AnswerDistribution:
+    def infer(self, program, method: str = "auto", *, num_samples: int = 4096, seed: int = 0,
+              budget: Budget | None = None) -> AnswerDistribution:
+        """The answer distribution of ``program``. ``budget`` (default :class:`Budget`: 2 GiB, 30 s) bounds the
+        call's largest tensor and its time; past it, ``auto`` falls back to sampling and the other methods raise
+        :class:`BudgetExceeded`."""
         if method not in METHODS:
             raise UnknownNameError("inference method", method, METHODS)
+        if not isinstance(num_samples, int) or isinstance(num_samples, bool) or num_samples < 1:
+            raise InputError("num_samples", f"must be a positive integer, got {num_samples!r}")
         compiled = program if isinstance(program, CompiledProgram) else compile_program(program)
         run = getattr(self, f"_{method}")
         with self._device():
-            return run(compiled, num_samples=num_samples, seed=seed)
+            return run(compiled, num_samples=num_samples, seed=seed, budget=budget or Budget())
 
-    def reference(self, program, method: str) -> AnswerDistribution:
+    def reference(self, program, method: str, *, budget: Budget | None = None) -> AnswerDistribution:
         """The answer by a reference implementation (``dense`` or ``generic``), to cross-check the exact engine."""
         if method not in REFERENCE_METHODS:
             raise UnknownNameError("reference method", method, REFERENCE_METHODS)
         compiled = program if isinstance(program, CompiledProgram) else compile_program(program)
         with self._device():
-            return getattr(self, f"_{method}")(compiled)
+            return getattr(self, f"_{method}")(compiled, budget=budget or Budget())
 
     # ---- methods -------------------------------------------------------------------------------------------------
     def _support(self, compiled: CompiledProgram) -> list:
-        return values.support(compiled.answer_type, self.evidence.num_objects)
+        n = self.evidence.num_objects
+        counts_parts = any(node.operation.name == "count" and node.operation.inputs == ("PartSet",)
+                           for node in compiled.typed.nodes)
+        return values.support(compiled.answer_type, n * ontology.MAX_PARTS if counts_parts else n)
 
     def _distribution(self, compiled, probs, invalid, method, **extra) -> AnswerDistribution:
         support = self._support(compiled)
@@ -88,47 +102,55 @@ class SceneReasoner:
         return AnswerDistribution(answers, float(invalid), method, compiled.answer_type, error=error, stderr=errs,
                                   info=extra)
 
-    def _exact(self, compiled, max_elements: float | None = None, **_):
+    def _exact(self, compiled, budget: Budget, max_elements: float | None = None, **_):
         from po3d_ppl.reasoning.inference.exact import exact_distribution
 
         result = exact_distribution(compiled.typed, self.posteriors, self.evidence, len(self._support(compiled)),
-                                    max_elements=max_elements)
+                                    max_elements=max_elements, budget=budget)
         return self._distribution(compiled, result.probs, result.invalid, "exact", peak_elements=result.peak_elements)
 
-    def _dense(self, compiled, **_):
+    def _dense(self, compiled, budget: Budget, **_):
         from po3d_ppl.reasoning.inference.reference.dense import dense_distribution
 
-        probs, invalid, count = dense_distribution(compiled.typed, self.posteriors, self.evidence,
-                                                   len(self._support(compiled)))
+        with enforce(budget, "dense enumeration"):
+            probs, invalid, count = dense_distribution(compiled.typed, self.posteriors, self.evidence,
+                                                       len(self._support(compiled)))
         return self._distribution(compiled, probs, invalid, "dense", assignments=count)
 
-    def _sampling(self, compiled, num_samples: int = 4096, seed: int = 0, **_):
+    def _sampling(self, compiled, budget: Budget, num_samples: int = 4096, seed: int = 0, **_):
         from po3d_ppl.reasoning.inference.sampling import sample_distribution
 
-        result = sample_distribution(compiled.typed, self.posteriors, self.evidence, len(self._support(compiled)),
-                                     num_samples=num_samples, seed=seed)
+        with enforce(budget, "sampling"):
+            result = sample_distribution(compiled.typed, self.posteriors, self.evidence, len(self._support(compiled)),
+                                         num_samples=num_samples, seed=seed)
         # three standard errors per outcome; at least the "rule of three" bound 3/S when samples all agree
         error = float(3 * result.stderr.sum()) + 3 * (result.invalid * (1 - result.invalid) / num_samples) ** 0.5
         error = min(max(error, 3.0 / num_samples), 1.0)
         return self._distribution(compiled, result.probs, result.invalid, "sampling", stderr=result.stderr,
                                   error=error, samples=num_samples)
 
-    def _auto(self, compiled, num_samples: int = 4096, seed: int = 0, **_):
+    def _auto(self, compiled, budget: Budget, num_samples: int = 4096, seed: int = 0, **_):
         from po3d_ppl.reasoning.inference import exact as exact_module
         from po3d_ppl.reasoning.inference.enum_world import ExactUnsupported
 
+        start = time.monotonic()
+        exact_budget = Budget(budget.max_bytes, None if budget.max_seconds is None
+                              else budget.max_seconds * AUTO_EXACT_TIME_SHARE)
         try:
-            return self._exact(compiled, max_elements=min(AUTO_EXACT_ELEMENTS, exact_module.MAX_ELEMENTS))
-        except ExactUnsupported as reason:
-            dist = self._sampling(compiled, num_samples=num_samples, seed=seed)
+            return self._exact(compiled, exact_budget,
+                               max_elements=min(AUTO_EXACT_ELEMENTS, exact_module.MAX_ELEMENTS))
+        except (ExactUnsupported, BudgetExceeded) as reason:
+            left = None if budget.max_seconds is None else max(budget.max_seconds - (time.monotonic() - start), 1e-3)
+            dist = self._sampling(compiled, Budget(budget.max_bytes, left), num_samples=num_samples, seed=seed)
             dist.info["fallback"] = str(reason)
             return dist
 
-    def _generic(self, compiled, **_):
+    def _generic(self, compiled, budget: Budget, **_):
         from po3d_ppl.reasoning.inference.reference.generic import generic_distribution
 
-        probs, invalid = generic_distribution(compiled.typed, self.posteriors, self.evidence,
-                                              len(self._support(compiled)))
+        with enforce(budget, "generic inference"):
+            probs, invalid = generic_distribution(compiled.typed, self.posteriors, self.evidence,
+                                                  len(self._support(compiled)))
         return self._distribution(compiled, probs, invalid, "generic")
 
     def _thresholded(self, compiled, **_):
@@ -148,6 +170,6 @@ class SceneReasoner:
 
 
 def infer(program, evidence: SceneEvidence, method: str = "auto", *, priors: ScenePriors = ScenePriors(),
-          num_samples: int = 4096, seed: int = 0) -> AnswerDistribution:
+          num_samples: int = 4096, seed: int = 0, budget: Budget | None = None) -> AnswerDistribution:
     """The answer distribution of ``program`` (text, AST, JSON node list or compiled) given ``evidence``."""
-    return SceneReasoner(evidence, priors).infer(program, method, num_samples=num_samples, seed=seed)
+    return SceneReasoner(evidence, priors).infer(program, method, num_samples=num_samples, seed=seed, budget=budget)

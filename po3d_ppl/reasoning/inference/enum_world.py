@@ -20,6 +20,7 @@ or a {0,1} constraint, so the result is the exact marginal of the compiled model
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import torch
@@ -109,8 +110,12 @@ def _compact(probs: torch.Tensor, vals: torch.Tensor) -> tuple[torch.Tensor, tor
 
 
 class EnumWorld(LatentWorld):
-    def __init__(self, posteriors: SitePosteriors, evidence: SceneEvidence):
+    def __init__(self, posteriors: SitePosteriors, evidence: SceneEvidence,
+                 on_grow: Callable[[int], None] | None = None):
         self.post = posteriors
+        #: hears the bound on any tensor's size (objects x parts x every dimension) each time it grows
+        self._on_grow = on_grow
+        self._bound = evidence.num_objects * ontology.MAX_PARTS
         self.num_objects = n = evidence.num_objects
         self.num_parts = ontology.MAX_PARTS
         self.positions = evidence.positions.reshape(n, 1, 3)
@@ -136,6 +141,9 @@ class EnumWorld(LatentWorld):
     def alloc(self, name: str, size: int, kind: str) -> Dim:
         dim = Dim(name, size, kind, -3 - len(self.dims))
         self.dims.append(dim)
+        self._bound *= max(size, 1)
+        if self._on_grow is not None:
+            self._on_grow(self._bound)
         return dim
 
     @staticmethod

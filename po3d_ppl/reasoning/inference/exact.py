@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import torch
 
 from po3d_ppl.evidence import DTYPE, SceneEvidence
+from po3d_ppl.reasoning.budget import Budget, LazyGuard
 from po3d_ppl.reasoning.execution import run_program
 from po3d_ppl.reasoning.inference.enum_world import Dim, EnumWorld, ExactUnsupported
 from po3d_ppl.reasoning.inference.sop import Sop
@@ -48,8 +49,10 @@ def _rank(t: torch.Tensor, rank: int) -> torch.Tensor:
 
 
 class _Contractor:
-    def __init__(self, world: EnumWorld, max_elements: float = MAX_ELEMENTS):
+    def __init__(self, world: EnumWorld, max_elements: float = MAX_ELEMENTS, tick=lambda: None):
         self.world = world
+        #: called at every contraction: the time budget's clock
+        self.tick = tick
         self.max_elements = max_elements
         self.kind = {d.pos: d.kind for d in world.dims}
         self.kind[-1] = "plate"
@@ -91,6 +94,7 @@ class _Contractor:
             present.update(pos)
             operands += [t, [-p for p in pos]]
         out = sorted(p for p in present if keep(p))
+        self.tick()
         size = math.prod(self._size(p) for p in out)
         self.peak = max(self.peak, size)
         if size > self.max_elements:
@@ -327,16 +331,17 @@ def joint_mass(world: EnumWorld, contractor: _Contractor) -> torch.Tensor:
             for block in blocks:
                 w = w + (world.index == world.ar(block[0])) * m.on[block]
             weights[pattern] = w
-        total = total + _indicator(world, partition) * _count_chain(world, aggregates, weights)
+        total = total + _indicator(world, partition) * _count_chain(world, aggregates, weights, contractor.tick)
     return total
 
 
-def _count_chain(world: EnumWorld, aggregates, weights: dict) -> torch.Tensor:
+def _count_chain(world: EnumWorld, aggregates, weights: dict, tick) -> torch.Tensor:
     """Running-state chain over objects: the joint distribution of every count/exist of the program."""
     state = torch.ones((), dtype=DTYPE)
     for agg in aggregates:
         state = state * (world.ar(agg.dim) == 0).to(DTYPE)
     for k in range(world.num_objects):
+        tick()
         new_state = torch.zeros((), dtype=DTYPE)
         for pattern, w in weights.items():
             w = _rank(w, 2)
@@ -351,13 +356,25 @@ def _count_chain(world: EnumWorld, aggregates, weights: dict) -> torch.Tensor:
 
 
 def exact_distribution(typed, posteriors: SitePosteriors, evidence: SceneEvidence, num_values: int,
-                       max_elements: float | None = None) -> ExactResult:
-    """Exact answer distribution of ``typed`` over answer ids ``0..num_values-1`` plus the invalid mass."""
-    world = EnumWorld(posteriors, evidence)
+                       max_elements: float | None = None, budget: Budget | None = None) -> ExactResult:
+    """Exact answer distribution of ``typed`` over answer ids ``0..num_values-1`` plus the invalid mass.
+
+    Within ``budget`` (:mod:`po3d_ppl.reasoning.budget`): past it, :class:`BudgetExceeded` before the allocation."""
+    guard = LazyGuard(budget or Budget(), "exact inference")
+    try:
+        return _exact_distribution(typed, posteriors, evidence, num_values, max_elements, guard)
+    finally:
+        guard.close()
+
+
+def _exact_distribution(typed, posteriors, evidence, num_values, max_elements, guard: LazyGuard) -> ExactResult:
+    world = EnumWorld(posteriors, evidence, on_grow=guard.grow)
     value = run_program(typed, world)
     if not isinstance(value, torch.Tensor):
         raise ExactUnsupported("the program's result is not an answer value")
-    contractor = _Contractor(world, MAX_ELEMENTS if max_elements is None else max_elements)
+    if isinstance(value, torch.Tensor) and bool((value < 0).all()):  # every execution is invalid: nothing to weigh
+        return ExactResult(torch.zeros(num_values, dtype=DTYPE), 1.0, 0)
+    contractor = _Contractor(world, MAX_ELEMENTS if max_elements is None else max_elements, tick=guard.tick)
     mass = joint_mass(world, contractor)
     if any(contractor.kind.get(p) in ("local", "part") for p in _present(value)):
         raise ExactUnsupported("the answer depends on a latent that is not a pivot attribute")

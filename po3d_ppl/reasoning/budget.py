@@ -1,0 +1,168 @@
+"""Memory and time budgets for one inference call, enforced before anything too large is allocated.
+
+Every inference method runs its tensor code under :func:`enforce`, a ``TorchFunctionMode`` that sees each torch
+call before it runs. For element-wise and broadcasting calls (the operations of a program on an enumerated world,
+the contractions of the exact engine, Pyro's variable elimination) the result's size is the broadcast of the
+inputs' shapes, so the call is refused *before* it allocates when that would exceed the budget; the clock is
+checked at every call too. Exceeding either raises a :class:`BudgetExceeded` (typed, one line), which ``auto``
+answers by falling back from exact inference to sampling, and which the other methods report as a refusal.
+
+A budget bounds the largest single tensor at a quarter of the memory cap (float64, 8 bytes an element), leaving
+room for the handful of live tensors of that size an engine holds at once; the fuzz benchmark
+(``benchmarks/bench_fuzz_inference.py``) measures the peak resident memory this gives.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+import torch
+from torch.overrides import TorchFunctionMode
+
+from po3d_ppl.errors import InputError, Po3dError
+
+#: Bytes per element assumed when sizing a result before it exists (the engines compute in float64).
+ELEMENT_BYTES = 8
+#: The largest single tensor may take this share of the memory cap.
+TENSOR_SHARE = 0.25
+
+
+@dataclass(frozen=True)
+class Budget:
+    """Per-call limits: memory in bytes (default 2 GiB) and wall-clock seconds (default 30 s; None: no limit)."""
+
+    max_bytes: int = 2 << 30
+    max_seconds: float | None = 30.0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.max_bytes, int) or isinstance(self.max_bytes, bool) or self.max_bytes < 1 << 20:
+            raise InputError("budget.max_bytes", f"must be an integer number of bytes >= 1 MiB, got {self.max_bytes!r}")
+        if self.max_seconds is not None and not (isinstance(self.max_seconds, (int, float))
+                                                 and math.isfinite(self.max_seconds) and self.max_seconds > 0):
+            raise InputError("budget.max_seconds", f"must be a positive number of seconds or None, got "
+                             f"{self.max_seconds!r}")
+
+    @property
+    def max_elements(self) -> int:
+        """The largest single tensor allowed, in elements."""
+        return int(self.max_bytes * TENSOR_SHARE / ELEMENT_BYTES)
+
+
+class BudgetExceeded(Po3dError):
+    """An inference call would exceed its memory or time budget; nothing that large was allocated."""
+
+
+class MemoryBudgetExceeded(BudgetExceeded, MemoryError):
+    pass
+
+
+class TimeBudgetExceeded(BudgetExceeded, TimeoutError):
+    pass
+
+
+def _broadcast_numel(shapes) -> int:
+    """Elements of the broadcast of ``shapes`` (0 if they do not broadcast); plain Python, as this runs on every
+    torch call (``torch.broadcast_shapes`` costs ten times more)."""
+    rank = max(len(shape) for shape in shapes)
+    total = 1
+    for axis in range(1, rank + 1):
+        size = 1
+        for shape in shapes:
+            if axis <= len(shape):
+                d = shape[-axis]
+                if d != 1:
+                    if size != 1 and d != size:
+                        return 0
+                    size = d
+        total *= size
+    return total
+
+
+def _tensors(values) -> list[torch.Tensor]:
+    """Tensor arguments, top level and one level into tuples and lists (where torch calls keep them)."""
+    out = []
+    for value in values:
+        if isinstance(value, torch.Tensor):
+            out.append(value)
+        elif isinstance(value, (tuple, list)):
+            out += [v for v in value if isinstance(v, torch.Tensor)]
+    return out
+
+
+def _result_elements(func, args, kwargs) -> int:
+    """The size of a broadcasting call's result, from its inputs' shapes (0 when it is not sized that way)."""
+    if func is torch.Tensor.__getitem__:  # advanced indexing: the broadcast index shape, then the untouched dims
+        source, index = args[0], args[1] if isinstance(args[1], tuple) else (args[1],)
+        indices = [i.shape for i in index if isinstance(i, torch.Tensor)]
+        return _broadcast_numel(indices) * math.prod(source.shape[len(index):]) if indices else 0
+    shapes = [t.shape for t in _tensors(args)]
+    if kwargs:
+        shapes += [t.shape for t in _tensors(kwargs.values())]
+    # a call whose inputs do not broadcast (einsum, matmul, cat ...) gives 0: torch sizes it from its inputs
+    return _broadcast_numel(shapes) if len(shapes) > 1 else 0
+
+
+class _Guard(TorchFunctionMode):
+    def __init__(self, budget: Budget, what: str):
+        super().__init__()
+        self.budget, self.what = budget, what
+        self.deadline = None if budget.max_seconds is None else time.monotonic() + budget.max_seconds
+        self.peak_elements = 0
+
+    def __torch_function__(self, func, types, args=(), kwargs=None):
+        kwargs = kwargs or {}
+        elements = _result_elements(func, args, kwargs)
+        self.peak_elements = max(self.peak_elements, elements)
+        if elements > self.budget.max_elements:
+            raise MemoryBudgetExceeded(
+                f"{self.what} would build a {elements:.2e}-element tensor ({elements * ELEMENT_BYTES / 2**30:.1f} GiB; "
+                f"limit {self.budget.max_elements:.2e} elements for a {self.budget.max_bytes / 2**30:.2g} GiB "
+                "budget): refused before allocating; raise the budget or use method='sampling'")
+        if self.deadline is not None and time.monotonic() > self.deadline:
+            raise TimeBudgetExceeded(f"{self.what} ran past its {self.budget.max_seconds:g} s budget; raise "
+                                     "budget.max_seconds or use method='sampling'")
+        return func(*args, **kwargs)
+
+
+class LazyGuard:
+    """The guard, entered only once the tensors *could* outgrow the budget.
+
+    The exact engine knows an upper bound on every tensor it builds: the product of all its enumeration dimensions
+    with the object and part axes (``grow``). While that bound is under the budget no call can exceed it, so the
+    engine pays nothing; past it, the guard checks every call from then on. The clock is checked on ``grow`` and
+    ``tick`` (the engine's loops).
+    """
+
+    def __init__(self, budget: Budget, what: str):
+        self.budget, self.what = budget, what
+        self.deadline = None if budget.max_seconds is None else time.monotonic() + budget.max_seconds
+        self._guard: _Guard | None = None
+
+    def grow(self, bound: int) -> None:
+        if bound > self.budget.max_elements and self._guard is None:
+            self._guard = _Guard(self.budget, self.what)
+            self._guard.deadline = self.deadline
+            self._guard.__enter__()
+        self.tick()
+
+    def tick(self) -> None:
+        if self.deadline is not None and time.monotonic() > self.deadline:
+            raise TimeBudgetExceeded(f"{self.what} ran past its {self.budget.max_seconds:g} s budget; raise "
+                                     "budget.max_seconds or use method='sampling'")
+
+    def close(self) -> None:
+        if self._guard is not None:
+            self._guard.__exit__(None, None, None)
+            self._guard = None
+
+
+@contextmanager
+def enforce(budget: Budget, what: str = "inference") -> Iterator[_Guard]:
+    """Run the enclosed torch code within ``budget`` (see the module docstring)."""
+    guard = _Guard(budget, what)
+    with guard:
+        yield guard
