@@ -76,7 +76,7 @@ class _EvidenceBuilder:
         if self.noise == 0.0:
             return CERTAIN if truth else -CERTAIN
         observed = truth != (self.rng.random() < self.noise)
-        strength = math.log((1.0 - self.noise) / self.noise)
+        strength = min(math.log((1.0 - self.noise) / self.noise), CERTAIN)  # the ratio overflows for subnormal noise
         return strength if observed else -strength
 
     def pose(self, degree: float) -> tuple[np.ndarray, np.ndarray]:
