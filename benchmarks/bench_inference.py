@@ -29,6 +29,7 @@ def main() -> None:
     parser.add_argument("--generic", type=int, default=24, help="questions also run through the generic path")
     parser.add_argument("--generic-files", default="core,pose,obj_occlusion",
                         help="question files the generic path samples from (it takes minutes per part question)")
+    parser.add_argument("--generic-gib", type=float, default=2.0, help="memory budget of each generic call")
     parser.add_argument("--threads", type=int, default=1)
     parser.add_argument("--seed", type=int, default=11)
     parser.add_argument("--data", default=None, help="reuse a built dataset directory")
@@ -39,7 +40,7 @@ def main() -> None:
     torch.set_num_threads(args.threads)
     from po3d_ppl.perception import simulated_evidence
     from po3d_ppl.questions.dataset import BuildConfig, build_dataset, load_dataset
-    from po3d_ppl.reasoning import SceneReasoner
+    from po3d_ppl.reasoning import Budget, BudgetExceeded, SceneReasoner
 
     root = args.data or tempfile.mkdtemp(prefix="bench_inference_")
     if not os.path.exists(os.path.join(root, "manifest.json")):
@@ -55,7 +56,8 @@ def main() -> None:
     reasoners, tables = {}, []
     times: dict[str, list[float]] = defaultdict(list)
     by_file: dict[str, list[float]] = defaultdict(list)
-    generic_pairs = []
+    generic_pairs, generic_refused = [], []
+    generic_budget = Budget(max_bytes=int(args.generic_gib * 2**30), max_seconds=None)
     fallbacks = 0
     for k, (name, q) in enumerate(questions):
         index = q["image_index"]
@@ -87,8 +89,11 @@ def main() -> None:
         if (name in args.generic_files.split(",") and k % max(1, len(questions) // max(4 * args.generic, 1)) == 0
                 and len(generic_pairs) < args.generic and exact == exact):
             start = time.perf_counter()
-            reasoner.reference(program, "generic")
-            generic_pairs.append((time.perf_counter() - start, exact))
+            try:
+                reasoner.reference(program, "generic", budget=generic_budget)
+                generic_pairs.append((time.perf_counter() - start, exact))
+            except BudgetExceeded as refusal:
+                generic_refused.append(str(refusal))
 
     def ms(values):
         values = [v for v in values if v == v]
@@ -108,6 +113,8 @@ def main() -> None:
         print(f"generic  ({len(generic)} questions): {ms(generic)}")
         print(f"speed-up of exact over generic on the same questions: median {statistics.median(ratios):.0f}x, "
               f"min {min(ratios):.0f}x")
+    if generic_refused:
+        print(f"generic refused ({len(generic_refused)}, budget {args.generic_gib:g} GiB): {generic_refused[0]}")
 
 
 if __name__ == "__main__":

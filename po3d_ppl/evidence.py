@@ -101,8 +101,8 @@ class SceneEvidence:
     color_loglik: torch.Tensor  # [N, 8]
     material_loglik: torch.Tensor  # [N, 2]
     size_loglik: torch.Tensor  # [N, 2]
-    pose_support: torch.Tensor  # [N, K] azimuths in degrees (a grid per proposal)
-    pose_loglik: torch.Tensor  # [N, K]
+    pose_support: torch.Tensor  # [N, K] azimuths in degrees (a grid per proposal, shared by the categories)
+    pose_loglik: torch.Tensor  # [N, 5, K]: per category hypothesis (each category's mesh is fitted on its own)
     occluded_logodds: torch.Tensor  # [N]
     occludes_logodds: torch.Tensor  # [N, N]: [i, j] object i is occluded by object j (diagonal ignored)
     part_visible_logodds: torch.Tensor  # [N, 21, P]
@@ -141,7 +141,7 @@ class SceneEvidence:
             "material_loglik": (n, len(ontology.MATERIALS)),
             "size_loglik": (n, len(ontology.SIZES)),
             "pose_support": (n, k),
-            "pose_loglik": (n, k),
+            "pose_loglik": (n, len(ontology.CATEGORIES), k),
             "occluded_logodds": (n,),
             "occludes_logodds": (n, n),
             "part_visible_logodds": (n, S, P),

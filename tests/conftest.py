@@ -28,3 +28,18 @@ def builtin_registry_copy():
     for op in default_registry():
         registry.register(op)
     return registry
+
+
+#: The one rendered dataset the suite builds (200 scenes, 320x240, elevated aeroplanes so every family can occur),
+#: shared by the dataset tests and the certain-evidence reasoning test.
+SHARED_DATASET = dict(scenes=200, seed=2024, width=320, height=240, height_depth=True)
+
+
+@pytest.fixture(scope="session")
+def shared_dataset(tmp_path_factory):
+    """(root, build report, loaded dataset) of :data:`SHARED_DATASET`, built once per test session."""
+    from po3d_ppl.questions.dataset import BuildConfig, build_dataset, load_dataset
+
+    root = tmp_path_factory.mktemp("shared_dataset")
+    report = build_dataset(root, BuildConfig(**SHARED_DATASET), workers=2)
+    return root, report, load_dataset(root)

@@ -59,8 +59,9 @@ def sparse_random_evidence(scene: Scene, rng: np.random.Generator, num_uncertain
     objects, others = [], []  # half of the uncertainty goes to object latents, half to pairs and parts
     for i in range(n):
         objects += [("exist_logodds", (i,)), ("subtype_loglik", (i,)), ("color_loglik", (i,)),
-                    ("material_loglik", (i,)), ("size_loglik", (i,)), ("pose_loglik", (i,)),
-                    ("occluded_logodds", (i,))]
+                    ("material_loglik", (i,)), ("size_loglik", (i,)), ("occluded_logodds", (i,))]
+        # the pose read by each category's mesh: made uncertain per category, so it depends on the subtype
+        objects += [("pose_loglik", (i, c)) for c in range(len(ontology.CATEGORIES))]
         others += [("occludes_logodds", (i, j)) for j in range(n) if j != i]
         s = true_sub[i]
         for p in range(len(ontology.PARTS[ontology.SUBTYPES[s]])):
@@ -101,8 +102,12 @@ def _latents(ev: SceneEvidence, priors: ScenePriors) -> list[_Latent]:
     for i in range(n):
         out.append(_Latent(("exists", i), *_binary(priors.exists, ev.exist_logodds[i])))
         for name, ll in (("subtype", ev.subtype_loglik), ("color", ev.color_loglik),
-                         ("material", ev.material_loglik), ("size", ev.size_loglik), ("pose", ev.pose_loglik)):
+                         ("material", ev.material_loglik), ("size", ev.size_loglik)):
             out.append(_Latent((name, i), *_categorical(uniform(ll.shape[-1]), ll[i].numpy())))
+        subtypes = next(lat for lat in out if lat.key == ("subtype", i)).values
+        for s in subtypes:  # the pose of each subtype hypothesis, scored by its category's mesh
+            ll = ev.pose_loglik[i, ontology.CATEGORIES.index(ontology.CATEGORY_OF[ontology.SUBTYPES[s]])].numpy()
+            out.append(_Latent(("pose", i, s), *_categorical(uniform(ll.shape[-1]), ll)))
         out.append(_Latent(("occluded", i), *_binary(priors.occluded, ev.occluded_logodds[i])))
         for j in range(n):
             if j != i:
@@ -154,8 +159,8 @@ def brute_force(program_json: list[dict], ev: SceneEvidence, priors: ScenePriors
 def scene_from_assignment(assign: dict[tuple, int], evidence: SceneEvidence) -> Scene:
     """The scene an assignment describes: non-existing proposals are dropped (and the rest re-indexed).
 
-    Assignments map latent elements to value indices: ``("exists", i)``, ``("pose", i)`` (an index into the
-    proposal's azimuth grid), ``("occludes", i, j)`` (i occluded by j), ``("part_state", i, s, p)``,
+    Assignments map latent elements to value indices: ``("exists", i)``, ``("pose", i, s)`` (an index into the
+    proposal's azimuth grid, for subtype hypothesis s), ``("occludes", i, j)`` (i occluded by j), ``("part_state", i, s, p)``,
     ``("part_occludes", i, s, p, j)`` for subtype hypothesis s, ... Running the reference executor on the scene
     checks the latent-world semantics against the ground-truth ones, assignment by assignment."""
     n = evidence.num_objects
@@ -184,7 +189,7 @@ def scene_from_assignment(assign: dict[tuple, int], evidence: SceneEvidence) -> 
             subtype=sub, color=ontology.COLORS[assign[("color", i)]],
             material=ontology.MATERIALS[assign[("material", i)]], size=ontology.SIZES[assign[("size", i)]],
             rotation=0.0, position=tuple(float(x) for x in evidence.positions[i]),
-            pose_degree=float(evidence.pose_support[i, assign[("pose", i)]]), parts=parts,
+            pose_degree=float(evidence.pose_support[i, assign[("pose", i, s)]]), parts=parts,
             pixel_coords=(0.0, 0.0, float(evidence.depths[i])),
             annotation=EntityAnnotation(200, 200, (0, 0, 0, 0), occ), part_annotations=part_ann))
     directions = {k: tuple(float(x) for x in v) for k, v in evidence.directions.items()}

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shutil
 import subprocess
 import sys
 import tomllib
@@ -21,10 +22,16 @@ def test_every_subpackage_is_declared():
 
 def test_wheel_carries_grammar_models_templates_and_spec_data(tmp_path):
     pytest.importorskip("setuptools")
+    source = tmp_path / "source"  # setuptools writes build/ and *.egg-info beside the sources: not in the checkout
+    for name in ("pyproject.toml", "README.md"):
+        source.mkdir(exist_ok=True)
+        shutil.copy(ROOT / name, source / name)
+    for name in ("po3d_ppl", "grammar", "models"):
+        shutil.copytree(ROOT / name, source / name, ignore=shutil.ignore_patterns("__pycache__"))
     proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation",
-                           str(ROOT), "-w", str(tmp_path)], capture_output=True, text=True)
+                           str(source), "-w", str(tmp_path / "wheel")], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
-    names = set(zipfile.ZipFile(next(tmp_path.glob("*.whl"))).namelist())
+    names = set(zipfile.ZipFile(next((tmp_path / "wheel").glob("*.whl"))).namelist())
     expected = {"po3d_ppl/grammar/program.lark", "po3d_ppl/world/data/part_dict.json",
                 "po3d_ppl/world/data/properties.json", "po3d_ppl/models/manifest.json"}
     expected |= {f"po3d_ppl/models/{p.name}" for p in (ROOT / "models").iterdir() if p.is_file()}

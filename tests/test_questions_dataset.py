@@ -1,8 +1,8 @@
 """Dataset builds with the real renderer: correctness of every question, coverage, balance, determinism,
 resumability and atomic writes.
 
-One 200-scene build (320x240, 2 workers, elevated aeroplanes so that every family can occur) is shared by the
-whole module; the determinism and resume tests use tiny builds of their own.
+The suite's one 200-scene build (``conftest.shared_dataset``: 320x240, 2 workers, elevated aeroplanes so that every
+family can occur) is shared with the reasoning tests; the determinism and resume tests use tiny builds of their own.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import pytest
 
 from po3d_ppl.errors import InputError
 from po3d_ppl.questions import dataset as ds
-from po3d_ppl.questions.dataset import BuildConfig, build_dataset, load_dataset
+from po3d_ppl.questions.dataset import BuildConfig, build_dataset
 from po3d_ppl.questions.executor import execute
 from po3d_ppl.questions.generator import answer_support
 from po3d_ppl.questions.question_sets import question_sets
@@ -30,15 +30,12 @@ from po3d_ppl.questions.verbalise import verbalise_answer
 pytestmark = pytest.mark.slow
 
 SCENES = 200
-CONFIG = BuildConfig(scenes=SCENES, seed=2024, width=320, height=240, height_depth=True)
 SMALL = BuildConfig(scenes=3, seed=7, width=320, height=240)
 
 
 @pytest.fixture(scope="module")
-def built(tmp_path_factory):
-    root = tmp_path_factory.mktemp("dataset")
-    report = build_dataset(root, CONFIG, workers=2)
-    return root, report, load_dataset(root)
+def built(shared_dataset):
+    return shared_dataset
 
 
 def _files(root: Path) -> list[Path]:

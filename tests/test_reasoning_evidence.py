@@ -41,7 +41,8 @@ def test_certain_evidence_gives_certain_posteriors(scene):
     assert post["part_occluded"][0, suv, roof, 1] == 1.0
     assert post["part_occludes"][0, suv, roof, 1, 1] == 1.0
     # the pose grid is anchored at the true azimuth, so index 0 holds it exactly
-    assert post["pose"][0, 0] == 1.0 and post.support["pose"][0, 0] == pytest.approx(100.0)
+    assert (post["pose"][0, :, 0] == 1.0).all() and post.support["pose"][0, 0] == pytest.approx(100.0)
+    assert torch.equal(post.shared["pose"], post["pose"][:, 0])  # the sensor reads pose alike for every category
     for probs in post.probs.values():
         assert torch.allclose(probs.sum(-1), torch.ones(()).double())
 

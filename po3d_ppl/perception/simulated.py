@@ -109,7 +109,11 @@ class _EvidenceBuilder:
         }
         poses = [self.pose(o.pose_degree) for o in objs]
         ev["pose_support"] = np.stack([p[0] for p in poses]) if n else np.zeros((0, self.k))
-        ev["pose_loglik"] = np.stack([p[1] for p in poses]) if n else np.zeros((0, self.k))
+        # the simulated sensor reads the azimuth the same way whatever the category (a real parser fits each
+        # category's mesh on its own, and its likelihoods differ)
+        categories = len(ontology.CATEGORIES)
+        ev["pose_loglik"] = (np.repeat(np.stack([p[1] for p in poses])[:, None, :], categories, axis=1) if n
+                             else np.zeros((0, categories, self.k)))
         ev["occludes_logodds"] = np.array(
             [[0.0 if i == j else self.binary(j in objs[i].occluded_by) for j in range(n)] for i in range(n)]
         ).reshape(n, n)

@@ -5,7 +5,9 @@ compiled model, every inference method and the baselines derive their layouts fr
 latent means one row here, its ``pyro.sample`` in the model, and the operations that read it.
 
 Plates, outermost first: ``occluders`` (j), ``models`` (subtype hypothesis s), ``objects`` (i), ``parts`` (p).
-Each plate signature is one *kind* of site with a fixed table layout (:data:`TABLE_AXES`).
+Each plate signature is one *kind* of site with a fixed table layout (:data:`TABLE_AXES`). Sites on the ``models``
+plate are switches: object i's value is the one of hypothesis ``subtype[i]`` (its parts, and its pose, whose
+likelihood perception computes per category mesh).
 """
 
 from __future__ import annotations
@@ -24,13 +26,16 @@ FIRST_ENUM_DIM = -5
 #: Site kinds by plate signature, and the axis order of their posterior tables (values always last).
 KINDS = {
     ("objects",): "object",
+    ("models", "objects"): "object_by_model",
     ("occluders", "objects"): "pair",
     ("models", "objects", "parts"): "part",
     ("occluders", "models", "objects", "parts"): "part_pair",
 }
-TABLE_AXES = {"object": "[N, K]", "pair": "[N_i, N_j, K]", "part": "[N, 21, P, K]", "part_pair": "[N_i, 21, P, N_j, K]"}
-#: Where the subtype-hypothesis axis sits in a part-level element layout (tables without the values axis).
-MODELS_AXIS = {"part": -2, "part_pair": -3}
+TABLE_AXES = {"object": "[N, K]", "object_by_model": "[N, 21, K]", "pair": "[N_i, N_j, K]",
+              "part": "[N, 21, P, K]", "part_pair": "[N_i, 21, P, N_j, K]"}
+#: Where the subtype-hypothesis axis sits in an element layout (tables without the values axis), for the kinds
+#: indexed by subtype hypothesis: an object's value is the one at its own subtype (a switch).
+MODELS_AXIS = {"object_by_model": -1, "part": -2, "part_pair": -3}
 
 
 @dataclass(frozen=True)
@@ -66,7 +71,7 @@ SITES: tuple[LatentSite, ...] = (
     LatentSite("color", ("objects",), len(ontology.COLORS)),
     LatentSite("material", ("objects",), len(ontology.MATERIALS)),
     LatentSite("size", ("objects",), len(ontology.SIZES)),
-    LatentSite("pose", ("objects",), None, support_field="pose_support", reads_as="pose_degree"),
+    LatentSite("pose", ("models", "objects"), None, support_field="pose_support", reads_as="pose_degree"),
     LatentSite("occluded", ("objects",), 2),
     LatentSite("occludes", ("occluders", "objects"), 2),
     LatentSite("part_state", ("models", "objects", "parts"), NUM_PART_STATES),
@@ -83,19 +88,22 @@ def sites_of(kind: str) -> tuple[str, ...]:
     return tuple(site.name for site in SITES if site.kind == kind)
 
 
-#: The object-level sites (one value per proposal), in model order.
-OBJECT_SITES = sites_of("object")
+#: The object-level sites (one value per proposal, at its own subtype hypothesis for a switch), in model order.
+OBJECT_SITES = tuple(site.name for site in SITES if site.kind in ("object", "object_by_model"))
 
 
 def element_layout(value: torch.Tensor, plates: tuple[str, ...]) -> torch.Tensor:
     """A site's value in the scene model's plate layout (``[*B, occluders, models, objects, parts]``, singletons
     where a plate is absent, at least one batch dimension assumed) in its kind's :data:`TABLE_AXES` without the
-    values axis, batch first: ``[*B, N]``, ``[*B, N_i, N_j]``, ``[*B, N, 21, P]`` or ``[*B, N_i, 21, P, N_j]``."""
+    values axis, batch first: ``[*B, N]``, ``[*B, N, 21]``, ``[*B, N_i, N_j]``, ``[*B, N, 21, P]`` or
+    ``[*B, N_i, 21, P, N_j]``."""
     if value.dim() < 5:
         value = value.reshape([1] * (5 - value.dim()) + list(value.shape))
     kind = KINDS[plates]
     if kind == "object":
         return value[..., 0, 0, :, 0]
+    if kind == "object_by_model":
+        return value[..., 0, :, :, 0].transpose(-1, -2)
     if kind == "pair":
         return value[..., :, 0, :, 0].transpose(-1, -2)
     if kind == "part":

@@ -9,7 +9,7 @@ sampling or generic methods, which make no such assumption.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import pyro.poutine as poutine
 import torch
@@ -38,6 +38,10 @@ class SitePosteriors:
     probs: dict[str, torch.Tensor]
     #: Values of each site's support: ``[K]`` ids, or ``[N, K]`` for per-proposal supports (pose azimuths).
     support: dict[str, torch.Tensor]
+    #: For ``object_by_model`` sites whose posterior is the same under every subtype hypothesis (the evidence does
+    #: not tell the categories apart there, as with the simulated sensor's poses): the table without that axis,
+    #: ``[N, K]``. The site is then independent of the subtype, and engines may treat it as an object site.
+    shared: dict[str, torch.Tensor] = field(default_factory=dict)
 
     def __getitem__(self, name: str) -> torch.Tensor:
         return self.probs[name]
@@ -92,4 +96,10 @@ def site_posteriors(evidence: SceneEvidence, priors: ScenePriors = ScenePriors()
         probs[spec.name] = table.contiguous() if len(spec.plates) > 1 else table
         k = probs[spec.name].shape[-1]
         support[spec.name] = getattr(evidence, spec.support_field) if spec.support_field else torch.arange(k)
-    return SitePosteriors(probs, support)
+    shared = {}
+    for spec in SITES:
+        if spec.kind == "object_by_model":
+            table = probs[spec.name]
+            if torch.equal(table, table[:, :1].expand_as(table)):
+                shared[spec.name] = table[:, 0]
+    return SitePosteriors(probs, support, shared)

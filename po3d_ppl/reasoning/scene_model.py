@@ -1,7 +1,7 @@
 """The latent scene as one Pyro program.
 
-Read it top to bottom: every object proposal has latent existence, subtype, colour, material, size, azimuth and
-occlusion state; every part slot of every subtype hypothesis has a latent state (hidden, plain or recoloured with a
+Read it top to bottom: every object proposal has latent existence, subtype, colour, material, size, azimuth (per
+subtype hypothesis, scored by its category's mesh) and occlusion state; every part slot of every subtype hypothesis has a latent state (hidden, plain or recoloured with a
 colour and material) and occlusion state; every (entity, object) pair has a latent "is occluded by". Each latent is
 drawn from its prior and conditioned on the evidence with ``pyro.factor``.
 
@@ -30,6 +30,7 @@ from pyro.ops.indexing import Vindex
 from po3d_ppl import ontology
 from po3d_ppl.errors import Po3dError
 from po3d_ppl.evidence import DTYPE, SceneEvidence, ScenePriors
+from po3d_ppl.reasoning import values
 from po3d_ppl.reasoning.latents import PLATE_DIMS
 
 
@@ -72,9 +73,12 @@ def scene_model(evidence: SceneEvidence, priors: ScenePriors = ScenePriors()) ->
         col = lambda t: t.unsqueeze(-1)  # noqa: E731  [N] -> [N, 1] (objects plate, parts broadcast)
         latents["exists"] = _bernoulli("exists", priors.exists, col(evidence.exist_logodds))
         for name, loglik in (("subtype", evidence.subtype_loglik), ("color", evidence.color_loglik),
-                             ("material", evidence.material_loglik), ("size", evidence.size_loglik),
-                             ("pose", evidence.pose_loglik)):
+                             ("material", evidence.material_loglik), ("size", evidence.size_loglik)):
             latents[name] = _categorical(name, uniform(loglik.shape[-1]), loglik.unsqueeze(-2))
+        with models:
+            # the pose of hypothesis s is scored by the mesh of s's category: [N, 5, K] -> [21, N, 1, K]
+            by_subtype = evidence.pose_loglik[:, values.subtype_category()].transpose(0, 1).unsqueeze(-2)
+            latents["pose"] = _categorical("pose", uniform(by_subtype.shape[-1]), by_subtype)
         latents["occluded"] = _bernoulli("occluded", priors.occluded, col(evidence.occluded_logodds))
         with occluders:
             # occludes[j, 0, i, 0]: object i is occluded by object j.

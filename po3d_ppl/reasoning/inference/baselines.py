@@ -52,9 +52,14 @@ class _Marginals:
         self.n = n = evidence.num_objects
         self.exists = p["exists"][:, 1]
         self.subtype, self.color, self.material, self.size = p["subtype"], p["color"], p["material"], p["size"]
-        self.pose_probs, self.pose_degree = p["pose"], evidence.pose_support  # [N, K]
+        # the pose marginal [N, K]: mixed over the subtype hypotheses unless it is the same under each
+        self.pose_probs = post.shared.get("pose")
+        if self.pose_probs is None:
+            self.pose_probs = torch.einsum("ns,nsk->nk", p["subtype"], p["pose"])
+        self.pose_degree = evidence.pose_support  # [N, K]
         labels = pose_label_ids(evidence.pose_support)  # [N, K]
-        self.pose_label = torch.stack([(p["pose"] * (labels == d)).sum(-1) for d in range(len(ontology.POSES))], -1)
+        self.pose_label = torch.stack([(self.pose_probs * (labels == d)).sum(-1) for d in range(len(ontology.POSES))],
+                                      -1)
         self.occluded = p["occluded"][:, 1]
         self.occludes = p["occludes"][..., 1] * (1 - torch.eye(n, dtype=DTYPE))  # [i, j]: i occluded by j
         sub = self.subtype  # [N, 21]

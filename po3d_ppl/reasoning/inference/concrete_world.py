@@ -35,20 +35,20 @@ def pose_degrees(support: torch.Tensor, index: torch.Tensor) -> torch.Tensor:
 def object_centric(name: str, site: Callable[[str], torch.Tensor], supports: Callable[[str], torch.Tensor]
                    ) -> torch.Tensor:
     """Source value ``name`` (a site's ``value_name``) from ``site(site_name)``: a site's values in the posterior
-    tables' layout without the values axis, batch first (``latents.TABLE_AXES``). A site with per-proposal
-    supports is read through ``supports(site_name)``; part latents at each object's own subtype hypothesis."""
+    tables' layout without the values axis, batch first (``latents.TABLE_AXES``). Sites on the subtype-hypothesis
+    plate are read at each object's own subtype; a site with per-proposal supports through ``supports(site)``."""
     spec = BY_VALUE_NAME[name]
+    value = site(spec.name)
+    if spec.kind in MODELS_AXIS:
+        models = MODELS_AXIS[spec.kind]
+        subtype = site("subtype").long()
+        index = subtype.reshape(*subtype.shape, *([1] * -models))  # [*B, N, 1(, 1, 1)]
+        rank = max(index.dim(), value.dim())  # batch ranks may differ (broadcast)
+        index, value = (t.reshape([1] * (rank - t.dim()) + list(t.shape)) for t in (index, value))
+        value = torch.take_along_dim(value, index, dim=models).squeeze(models)
     if spec.support_field is not None:
-        return pose_degrees(supports(spec.name), site(spec.name))
-    if spec.kind not in MODELS_AXIS:
-        return site(spec.name)
-    models = MODELS_AXIS[spec.kind]
-    subtype = site("subtype").long()
-    index = subtype.reshape(*subtype.shape, *([1] * -models))  # [*B, N, 1, 1(, 1)]
-    table = site(spec.name)
-    rank = max(index.dim(), table.dim())  # batch ranks may differ (broadcast)
-    index, table = (t.reshape([1] * (rank - t.dim()) + list(t.shape)) for t in (index, table))
-    return torch.take_along_dim(table, index, dim=models).squeeze(models)
+        value = pose_degrees(supports(spec.name), value)
+    return value
 
 
 def evidence_supports(evidence) -> Callable[[str], torch.Tensor]:

@@ -30,7 +30,7 @@ from po3d_ppl.errors import Po3dError
 from po3d_ppl.evidence import SceneEvidence
 from po3d_ppl.reasoning import values
 from po3d_ppl.reasoning.inference.sop import Sop
-from po3d_ppl.reasoning.latents import BY_VALUE_NAME, OBJECT_SITES
+from po3d_ppl.reasoning.latents import BY_VALUE_NAME, OBJECT_SITES, SITE
 from po3d_ppl.reasoning.posterior import SitePosteriors
 from po3d_ppl.reasoning.world import LatentWorld
 
@@ -152,16 +152,30 @@ class EnumWorld(LatentWorld):
         return torch.arange(dim.size).view(dim.size, *([1] * (-dim.pos - 1)))
 
     # ---- latent sites ----------------------------------------------------------------------------------------
+    def _by_model(self, name: str) -> bool:
+        """Whether object site ``name`` depends on the subtype hypothesis (a switch the evidence tells apart)."""
+        return SITE[name].kind == "object_by_model" and name not in self.post.shared
+
     def _object_site(self, name: str) -> tuple[Dim, torch.Tensor]:
+        """The generic object's dimension for site ``name`` and its compacted values ``[N, E]`` (``[N, E_s, E]``
+        for a site that depends on the subtype hypothesis: its table then follows the subtype's dimension)."""
         if name not in self._object_sites:
-            probs = self.post.probs[name]
             support = self.post.support[name]
             support = support.unsqueeze(0) if support.dim() == 1 else support
-            probs_c, vals_c = _compact(probs, support)
-            dim = self.alloc(name, probs_c.shape[-1], "local")
-            self.q[dim] = probs_c[self._ar_n, self.ar(dim)]
+            if self._by_model(name):
+                sub_dim, sub_vals = self._object_site("subtype")
+                by_support = self.post.probs[name][self._ar_n, sub_vals]  # [N, E_s, K]
+                probs_c, vals_c = _compact(by_support, support.unsqueeze(-2).expand(by_support.shape))
+                dim = self.alloc(name, probs_c.shape[-1], "local")
+                at = (self._ar_n, self.ar(sub_dim), self.ar(dim))
+            else:
+                probs = self.post.shared.get(name, self.post.probs[name])
+                probs_c, vals_c = _compact(probs, support)
+                dim = self.alloc(name, probs_c.shape[-1], "local")
+                at = (self._ar_n, self.ar(dim))
+            self.q[dim] = probs_c[at]
             self._object_sites[name] = (dim, vals_c)
-            self._placed[name] = vals_c[self._ar_n, self.ar(dim)]
+            self._placed[name] = vals_c[at]
         return self._object_sites[name]
 
     def _object_values(self, name: str) -> torch.Tensor:
@@ -292,7 +306,11 @@ class EnumWorld(LatentWorld):
             copy = self.alloc(f"{site}@{owner.name}", dim.size, "global")
             j = self.ar(owner)
             self.factors.append(Factor(Sop.lift(self.ar(copy) == self.ar(dim)), None, owner=owner))
-            self._copies[key] = (copy, vals[j, self.ar(copy)])
+            if self._by_model(site):  # the copy's values follow the pivot's own subtype (its copy)
+                sub_copy, _ = self._copy(owner, "subtype")
+                self._copies[key] = (copy, vals[j, self.ar(sub_copy), self.ar(copy)])
+            else:
+                self._copies[key] = (copy, vals[j, self.ar(copy)])
         return self._copies[key]
 
     def _part_copy(self, part: PartPivot, site: str) -> tuple[Dim, torch.Tensor]:

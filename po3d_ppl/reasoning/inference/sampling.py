@@ -2,8 +2,8 @@
 
 Samples are drawn site by site from the posterior tables of the scene model (``posterior.site_posteriors``, read
 from the model's enumerated trace), which is exact ancestral sampling because the model's latents are independent
-a posteriori. Part slots are drawn only for each sample's subtype: the switch model's other hypotheses never reach
-a program, so drawing them would not change any answer. Sites are drawn lazily, when the program first reads them.
+a posteriori. Sites on the subtype-hypothesis plate (parts, pose) are drawn only for each sample's subtype: the
+switch model's other hypotheses never reach a program, so drawing them would not change any answer. Sites are drawn lazily, when the program first reads them.
 """
 
 from __future__ import annotations
@@ -53,14 +53,19 @@ class PosteriorSampleSource:
 
     def _sample(self, name: str) -> torch.Tensor:
         post, spec = self.post, BY_VALUE_NAME[name]
-        if spec.support_field is not None:
-            return pose_degrees(post.support[spec.name], _draw(post.probs[spec.name], self.s, self.gen))
-        if spec.kind in ("object", "pair"):
-            return _draw(post.probs[name], self.s, self.gen)
-        # part slots of each sample's subtype: compare one uniform per slot with the cdf's k-th column, gathered
-        # by subtype one column at a time (never materialising [S, N, P, ..., K])
+        if spec.name in post.shared:  # the same posterior under every subtype: drawn as an object site
+            index = _draw(post.shared[spec.name], self.s, self.gen)
+        elif spec.kind in ("object", "pair"):
+            index = _draw(post.probs[spec.name], self.s, self.gen)
+        else:
+            index = self._at_own_subtype(post.probs[spec.name])
+        return index if spec.support_field is None else pose_degrees(post.support[spec.name], index)
+
+    def _at_own_subtype(self, table: torch.Tensor) -> torch.Tensor:
+        """Draws ``[S, N, ...]`` from ``table [N, 21, ..., K]`` at each sample's subtype: one uniform per element,
+        compared with the cdf's k-th column gathered by subtype one column at a time (never materialising
+        ``[S, N, ..., K]``)."""
         subtype = self("subtype")  # [S, N]
-        table = post.probs[name]  # [N, 21, P, ..., K]
         cdf = table.cumsum(-1)
         objects = torch.arange(table.shape[0])
         uniform = _uniform((self.s, *table.shape[:1], *table.shape[2:-1]), self.gen, table)

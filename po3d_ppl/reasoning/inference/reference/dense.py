@@ -47,8 +47,12 @@ class _Tables:
         probs = self.post.probs[site]
         n = self.n
         kind = SITE[site].kind
+        if site in self.post.shared:  # one value per object whatever its subtype: its row is set for every s
+            return [((i,), self.post.shared[site][i]) for i in range(n)]
         if kind == "object":
             return [((i,), probs[i]) for i in range(n)]
+        if kind == "object_by_model":
+            return [((i, s), probs[i, s]) for i in range(n) for s in subtypes[i]]
         if kind == "pair":
             return [((i, j), probs[i, j]) for i in range(n) for j in range(n) if i != j]
         out = []
