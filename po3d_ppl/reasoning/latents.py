@@ -50,14 +50,12 @@ class LatentSite:
     support_field: str | None = None
     #: The name programs read it by, when that is not the site's (the pose site is read as ``pose_degree``).
     reads_as: str | None = None
+    #: A yes/no latent (a Bernoulli site), read as bool; the others are ids (or azimuths).
+    boolean: bool = False
 
     @property
     def kind(self) -> str:
         return KINDS[self.plates]
-
-    @property
-    def binary(self) -> bool:
-        return self.size == 2
 
     @property
     def value_name(self) -> str:
@@ -66,17 +64,17 @@ class LatentSite:
 
 #: The latent sites, in model order.
 SITES: tuple[LatentSite, ...] = (
-    LatentSite("exists", ("objects",), 2),
+    LatentSite("exists", ("objects",), 2, boolean=True),
     LatentSite("subtype", ("objects",), len(ontology.SUBTYPES)),
     LatentSite("color", ("objects",), len(ontology.COLORS)),
     LatentSite("material", ("objects",), len(ontology.MATERIALS)),
     LatentSite("size", ("objects",), len(ontology.SIZES)),
     LatentSite("pose", ("models", "objects"), None, support_field="pose_support", reads_as="pose_degree"),
-    LatentSite("occluded", ("objects",), 2),
-    LatentSite("occludes", ("occluders", "objects"), 2),
+    LatentSite("occluded", ("objects",), 2, boolean=True),
+    LatentSite("occludes", ("occluders", "objects"), 2, boolean=True),
     LatentSite("part_state", ("models", "objects", "parts"), NUM_PART_STATES),
-    LatentSite("part_occluded", ("models", "objects", "parts"), 2),
-    LatentSite("part_occludes", ("occluders", "models", "objects", "parts"), 2),
+    LatentSite("part_occluded", ("models", "objects", "parts"), 2, boolean=True),
+    LatentSite("part_occludes", ("occluders", "models", "objects", "parts"), 2, boolean=True),
 )
 SITE = {site.name: site for site in SITES}
 #: Sites by the name programs read them by (``pose_degree`` -> the pose site).

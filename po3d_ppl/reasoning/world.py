@@ -26,6 +26,7 @@ import torch
 
 from po3d_ppl import ontology
 from po3d_ppl.reasoning import values
+from po3d_ppl.reasoning.latents import OBJECT_SITES, SITE
 from po3d_ppl.world.scene import RELATION_EPS
 
 
@@ -36,8 +37,8 @@ class ObjectView:
     ``category`` and ``pose_label`` are derived here from the subtype and the azimuth, as for every object.
     """
 
-    _ATTRS = ("index", "exists", "subtype", "category", "color", "material", "size", "pose_label", "pose_degree",
-              "occluded", "position", "depth")
+    _ATTRS = ("index", *(SITE[name].value_name for name in OBJECT_SITES), "category", "pose_label", "position",
+              "depth")
 
     def __init__(self, world: LatentWorld, handle):
         self._world, self._handle = world, handle
@@ -81,35 +82,12 @@ class LatentWorld(ABC):
     directions: dict[str, torch.Tensor]
 
     # ---- latent object attributes, [..., N, 1] -------------------------------------------------------------
-    @property
+    # One attribute per object-level site of the latent layout, by the name programs read it by (``exists``,
+    # ``subtype``, ``color``, ``material``, ``size``, ``pose_degree`` (azimuth, float), ``occluded``): see
+    # :class:`_ObjectLatent` below the class. Binary sites read as bool, the pose as its azimuth, the rest as ids.
     @abstractmethod
-    def exists(self) -> torch.Tensor: ...
-
-    @property
-    @abstractmethod
-    def subtype(self) -> torch.Tensor: ...
-
-    @property
-    @abstractmethod
-    def color(self) -> torch.Tensor: ...
-
-    @property
-    @abstractmethod
-    def material(self) -> torch.Tensor: ...
-
-    @property
-    @abstractmethod
-    def size(self) -> torch.Tensor: ...
-
-    @property
-    @abstractmethod
-    def pose_degree(self) -> torch.Tensor:
-        """Azimuth in degrees (float)."""
-
-    @property
-    @abstractmethod
-    def occluded(self) -> torch.Tensor:
-        """bool: the object is occluded by some object."""
+    def object_latent(self, site: str) -> torch.Tensor:
+        """Object-level latent ``site`` (a ``latents.OBJECT_SITES`` name) of every object, ``[..., N, 1]``."""
 
     # ---- latent part attributes, [..., N, P] ---------------------------------------------------------------
     @property
@@ -236,6 +214,21 @@ class LatentWorld(ABC):
             direction = self.directions[relation]
             offset = self.positions @ direction - pivot.position @ direction
         return self.exists & (offset > RELATION_EPS) & (self.index != pivot.index)
+
+
+class _ObjectLatent:
+    """``world.<value name>``: the object-level latent that a site of the layout declares, read through the
+    world's own :meth:`LatentWorld.object_latent`."""
+
+    def __init__(self, site: str):
+        self.site = site
+
+    def __get__(self, world, owner=None):
+        return self if world is None else world.object_latent(self.site)
+
+
+for _site in OBJECT_SITES:
+    setattr(LatentWorld, SITE[_site].value_name, _ObjectLatent(_site))
 
 
 def pose_label_ids(degree: torch.Tensor) -> torch.Tensor:

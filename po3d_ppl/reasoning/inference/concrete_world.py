@@ -92,37 +92,13 @@ class ConcreteWorld(LatentWorld):
             self._cache[name] = self._source(name)
         return self._cache[name]
 
-    def _obj(self, name: str) -> torch.Tensor:
-        return self.latent(name).unsqueeze(-1)
-
     # ---- latent attributes -----------------------------------------------------------------------------------
-    @property
-    def exists(self):
-        return self._obj("exists").bool()
-
-    @property
-    def subtype(self):
-        return self._obj("subtype").long()
-
-    @property
-    def color(self):
-        return self._obj("color").long()
-
-    @property
-    def material(self):
-        return self._obj("material").long()
-
-    @property
-    def size(self):
-        return self._obj("size").long()
-
-    @property
-    def pose_degree(self):
-        return self._obj("pose_degree")
-
-    @property
-    def occluded(self):
-        return self._obj("occluded").bool()
+    def object_latent(self, site: str) -> torch.Tensor:
+        spec = SITE[site]
+        value = self.latent(spec.value_name).unsqueeze(-1)
+        if spec.boolean:
+            return value.bool()
+        return value if spec.support_field else value.long()
 
     @cached_property
     def part_color(self):

@@ -202,33 +202,9 @@ class EnumWorld(LatentWorld):
         self._part_site(name)
         return self._placed[name]
 
-    @property
-    def exists(self):
-        return Sop.lift(self._object_values("exists").bool())
-
-    @property
-    def subtype(self):
-        return self._object_values("subtype")
-
-    @property
-    def color(self):
-        return self._object_values("color")
-
-    @property
-    def material(self):
-        return self._object_values("material")
-
-    @property
-    def size(self):
-        return self._object_values("size")
-
-    @property
-    def pose_degree(self):
-        return self._object_values("pose")
-
-    @property
-    def occluded(self):
-        return Sop.lift(self._object_values("occluded").bool())
+    def object_latent(self, site: str):
+        value = self._object_values(site)
+        return Sop.lift(value.bool()) if SITE[site].boolean else value
 
     @property
     def part_color(self):
@@ -337,7 +313,7 @@ class EnumWorld(LatentWorld):
         if spec is None or spec.name not in OBJECT_SITES:
             raise AttributeError(name)
         value = self._copy(obj.dim, spec.name)[1]
-        return value.bool() if spec.binary else value
+        return value.bool() if spec.boolean else value
 
     def pivot_part_attribute(self, part: PartPivot, name: str):
         if name == "owner":
