@@ -2,18 +2,18 @@
 
 Height and depth relations for the elevated-aeroplane extension (paper §6). Each operation is one decorated
 function over the latent world; registering it makes it available to the program grammar, the type checker, every
-inference method (exact, sampling, dense, generic) and the generated docs. A second, optional decorator gives it a
-ground-truth semantics so the question engine's reference executor can run it too.
+inference method (exact, sampling, and the dense and generic references) and the generated docs. A second,
+optional decorator gives it a ground-truth semantics so the question engine's reference executor can run it too.
 
     import height_depth_ops  # registers the operations
-    from po3d_ppl.reasoning import SceneEvidence, infer
     from po3d_ppl.perception import simulated_evidence
+    from po3d_ppl.reasoning import infer
     infer("query_shape(unique(relate_above(unique(filter_shape[bus](scene())))))", simulated_evidence(scene))
 """
 
 from __future__ import annotations
 
-from po3d_ppl.reasoning import register_operation, register_reference
+from po3d_ppl.catalogue import register_operation, register_reference
 
 #: Margin (world units) below which two heights or depths count as equal, like CLEVR's spatial relations.
 MARGIN = 0.2
