@@ -7,8 +7,9 @@ inputs' shapes, so the call is refused *before* it allocates when that would exc
 checked at every call too. Exceeding either raises a :class:`BudgetExceeded` (typed, one line), which ``auto``
 answers by falling back from exact inference to sampling, and which the other methods report as a refusal.
 
-A budget bounds the largest single tensor at a quarter of the memory cap (float64, 8 bytes an element), leaving
-room for the handful of live tensors of that size an engine holds at once; the fuzz benchmark
+A budget bounds the largest single tensor at half the memory cap (sized by its widest input's element: a
+comparison of bool sets costs a byte an element, float64 tables eight), leaving room for the few live tensors an
+engine holds at once; the fuzz benchmark
 (``benchmarks/bench_fuzz_inference.py``) measures the peak resident memory this gives.
 """
 
@@ -25,10 +26,10 @@ from torch.overrides import TorchFunctionMode
 
 from po3d_ppl.errors import InputError, Po3dError
 
-#: Bytes per element assumed when sizing a result before it exists (the engines compute in float64).
+#: Bytes per element assumed where a bound has no inputs to size it by (the engines compute in float64).
 ELEMENT_BYTES = 8
 #: The largest single tensor may take this share of the memory cap.
-TENSOR_SHARE = 0.25
+TENSOR_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -47,9 +48,14 @@ class Budget:
                              f"{self.max_seconds!r}")
 
     @property
+    def max_tensor_bytes(self) -> int:
+        """The largest single tensor allowed, in bytes."""
+        return int(self.max_bytes * TENSOR_SHARE)
+
+    @property
     def max_elements(self) -> int:
-        """The largest single tensor allowed, in elements."""
-        return int(self.max_bytes * TENSOR_SHARE / ELEMENT_BYTES)
+        """The largest single float64 tensor allowed, in elements."""
+        return self.max_tensor_bytes // ELEMENT_BYTES
 
 
 class BudgetExceeded(Po3dError):
@@ -93,17 +99,22 @@ def _tensors(values) -> list[torch.Tensor]:
     return out
 
 
-def _result_elements(func, args, kwargs) -> int:
-    """The size of a broadcasting call's result, from its inputs' shapes (0 when it is not sized that way)."""
+def _result_bytes(func, args, kwargs) -> int:
+    """The size of a broadcasting call's result from its inputs' shapes, at its widest input's element size (0 when
+    the call is not sized that way)."""
     if func is torch.Tensor.__getitem__:  # advanced indexing: the broadcast index shape, then the untouched dims
         source, index = args[0], args[1] if isinstance(args[1], tuple) else (args[1],)
         indices = [i.shape for i in index if isinstance(i, torch.Tensor)]
-        return _broadcast_numel(indices) * math.prod(source.shape[len(index):]) if indices else 0
-    shapes = [t.shape for t in _tensors(args)]
+        if not indices:
+            return 0
+        return _broadcast_numel(indices) * math.prod(source.shape[len(index):]) * source.element_size()
+    tensors = _tensors(args)
     if kwargs:
-        shapes += [t.shape for t in _tensors(kwargs.values())]
+        tensors += _tensors(kwargs.values())
+    if len(tensors) < 2:
+        return 0
     # a call whose inputs do not broadcast (einsum, matmul, cat ...) gives 0: torch sizes it from its inputs
-    return _broadcast_numel(shapes) if len(shapes) > 1 else 0
+    return _broadcast_numel([t.shape for t in tensors]) * max(t.element_size() for t in tensors)
 
 
 class _Guard(TorchFunctionMode):
@@ -111,16 +122,16 @@ class _Guard(TorchFunctionMode):
         super().__init__()
         self.budget, self.what = budget, what
         self.deadline = None if budget.max_seconds is None else time.monotonic() + budget.max_seconds
-        self.peak_elements = 0
+        self.peak_bytes = 0
 
     def __torch_function__(self, func, types, args=(), kwargs=None):
         kwargs = kwargs or {}
-        elements = _result_elements(func, args, kwargs)
-        self.peak_elements = max(self.peak_elements, elements)
-        if elements > self.budget.max_elements:
+        size = _result_bytes(func, args, kwargs)
+        self.peak_bytes = max(self.peak_bytes, size)
+        if size > self.budget.max_tensor_bytes:
             raise MemoryBudgetExceeded(
-                f"{self.what} would build a {elements:.2e}-element tensor ({elements * ELEMENT_BYTES / 2**30:.1f} GiB; "
-                f"limit {self.budget.max_elements:.2e} elements for a {self.budget.max_bytes / 2**30:.2g} GiB "
+                f"{self.what} would build a {size / 2**30:.2f} GiB tensor (limit "
+                f"{self.budget.max_tensor_bytes / 2**30:.2g} GiB for a {self.budget.max_bytes / 2**30:.2g} GiB "
                 "budget): refused before allocating; raise the budget or use method='sampling'")
         if self.deadline is not None and time.monotonic() > self.deadline:
             raise TimeBudgetExceeded(f"{self.what} ran past its {self.budget.max_seconds:g} s budget; raise "
