@@ -34,10 +34,10 @@ TENSOR_SHARE = 0.5
 
 @dataclass(frozen=True)
 class Budget:
-    """Per-call limits: memory in bytes (default 2 GiB) and wall-clock seconds (default 30 s; None: no limit)."""
+    """Per-call limits: memory in bytes (default 2 GiB) and wall-clock seconds (default 10 s; None: no limit)."""
 
     max_bytes: int = 2 << 30
-    max_seconds: float | None = 30.0
+    max_seconds: float | None = 10.0
 
     def __post_init__(self) -> None:
         if not isinstance(self.max_bytes, int) or isinstance(self.max_bytes, bool) or self.max_bytes < 1 << 20:

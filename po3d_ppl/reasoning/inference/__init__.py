@@ -65,7 +65,7 @@ class SceneReasoner:
 
     def infer(self, program, method: str = "auto", *, num_samples: int = 4096, seed: int = 0,
               budget: Budget | None = None) -> AnswerDistribution:
-        """The answer distribution of ``program``. ``budget`` (default :class:`Budget`: 2 GiB, 30 s) bounds the
+        """The answer distribution of ``program``. ``budget`` (default :class:`Budget`: 2 GiB, 10 s) bounds the
         call's largest tensor and its time; past it, ``auto`` falls back to sampling and the other methods raise
         :class:`BudgetExceeded`."""
         if method not in METHODS:
