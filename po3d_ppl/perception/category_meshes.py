@@ -8,12 +8,14 @@ between the wheels) and aeroplanes (between the wings and tail), so the surface 
 1. the union of the subtypes' part-labelled meshes (canonical frame: front +x, up +z, resting on z = 0) is voxelised
    on a fine grid (surface samples on a barycentric lattice, so every triangle is hit, then the shells' interiors
    filled);
-2. a coarse lattice is marked occupied where that solid is within ``dilation`` lattice spacings, closed (to bridge
-   spokes and slits) and filled; lattice points under the ground stay empty, so the mesh's base lies on z = 0;
-3. the boundary is extracted with naive surface nets (one vertex per boundary cell, so vertex spacing is the lattice
-   spacing: near-uniform, as the neural texture wants), after making the occupancy well-composed (no diagonal-only
-   contacts) so the surface is a closed 2-manifold; Taubin smoothing removes the staircase;
-4. the lattice spacing is searched so the mesh has about ``target_vertices`` vertices.
+2. a coarse lattice point is occupied if its cell holds any of that solid (max-pooling: no handlebar or wing tip
+   falls between lattice points); the occupancy is closed once (bridging spokes and slits) and filled; lattice
+   points under the ground stay empty, so the mesh's base lies on z = 0;
+3. the boundary is extracted with naive surface nets (one vertex per boundary cell, so the vertex spacing is the
+   lattice spacing: near-uniform, as a neural texture wants), after making the occupancy well-composed (no
+   diagonal-only contacts) so the surface is a closed 2-manifold; Taubin smoothing removes the staircase, and
+   vertices that smoothing pulled into thin features are pushed back out along their normals to a clearance;
+4. the lattice spacing is bisected so the mesh has about ``TARGET_VERTICES`` vertices.
 
 Everything is deterministic (no random sampling) and cached per process; all five build in a few seconds.
 :func:`pose_category_mesh` places a category mesh in the world with the conventions of
@@ -39,13 +41,14 @@ TARGET_VERTICES = 1000
 VERTEX_BAND = (900, 1100)
 #: Fine voxel pitch (canonical units; vehicles are about 0.9 long) of the union's solid.
 FINE_PITCH = 0.008
-#: A lattice point is occupied if the solid is within this many lattice spacings.
-DILATION = 0.85
-#: Taubin smoothing iterations (lambda, mu as in trimesh's defaults).
-SMOOTHING_ITERATIONS = 10
+#: After smoothing, every vertex is pushed to at least this many lattice spacings outside the solid (0.3 lets
+#: smoothed thin features poke out by up to ~1% of a vehicle's length; 0.4 keeps every subtype vertex inside).
+CLEARANCE = 0.4
+#: Rounds of (Taubin smoothing iterations, lambda and mu as in trimesh's defaults; then the push-out).
+SMOOTHING_ROUNDS, SMOOTHING_ITERATIONS = 4, 10
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class CategoryMesh:
     """A category's mesh in the canonical frame (unscaled, front +x, up +z, base on z = 0, centred in x and y).
 
@@ -66,7 +69,14 @@ class CategoryMesh:
 
     @property
     def bounds(self) -> np.ndarray:
+        """``[[xmin, ymin, zmin], [xmax, ymax, zmax]]`` in the canonical frame."""
         return np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)]).astype(np.float64)
+
+    def edge_lengths(self) -> np.ndarray:
+        """Length of every edge (each once): how uniform the vertex spacing is."""
+        e = np.sort(np.concatenate([self.faces[:, [0, 1]], self.faces[:, [1, 2]], self.faces[:, [2, 0]]]), axis=1)
+        e = np.unique(e, axis=0)
+        return np.linalg.norm(self.vertices[e[:, 0]].astype(np.float64) - self.vertices[e[:, 1]], axis=1)
 
     def trimesh(self):
         """A ``trimesh.Trimesh`` copy (for containment, ray casting, export)."""
@@ -76,13 +86,14 @@ class CategoryMesh:
 
     def tensors(self, device: torch.device | str | None = None, dtype: torch.dtype = torch.float32
                 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        """(vertices, faces, vertex normals) as torch tensors on ``device``."""
-        return (torch.as_tensor(self.vertices, dtype=dtype, device=device),
-                torch.as_tensor(self.faces, dtype=torch.long, device=device),
-                torch.as_tensor(self.vertex_normals, dtype=dtype, device=device))
+        """(vertices, faces, vertex normals) as torch tensors on ``device`` (copies: the arrays are read-only)."""
+        return (torch.tensor(np.array(self.vertices), dtype=dtype, device=device),
+                torch.tensor(np.array(self.faces), dtype=torch.long, device=device),
+                torch.tensor(np.array(self.vertex_normals), dtype=dtype, device=device))
 
 
 def subtypes_of(category: str) -> tuple[str, ...]:
+    """The category's subtypes, in ``ontology.SUBTYPES`` order."""
     if category not in ontology.CATEGORIES:
         raise UnknownNameError("category", category, ontology.CATEGORIES)
     return tuple(s for s in ontology.SUBTYPES if ontology.CATEGORY_OF[s] == category)
@@ -91,6 +102,12 @@ def subtypes_of(category: str) -> tuple[str, ...]:
 @cache
 def category_mesh(category: str) -> CategoryMesh:
     """The category's mesh (built once per process, then cached; its arrays are read-only)."""
+    return build_category_mesh(category)
+
+
+def build_category_mesh(category: str) -> CategoryMesh:
+    """Build the category's mesh from its subtypes' meshes (deterministic; about 0.3-0.5 s; prefer the cached
+    :func:`category_mesh`)."""
     subtypes = subtypes_of(category)
     solid = _union_solid(subtypes)
     vertices, faces, spacing = _search_spacing(solid)
@@ -112,14 +129,21 @@ def all_category_meshes() -> dict[str, CategoryMesh]:
 
 @dataclass(frozen=True)
 class _Solid:
-    """Occupancy of the union on a fine grid: voxel (i, j, k) has centre ``origin + (i, j, k) * pitch``;
-    ``distance`` is each voxel's distance to the nearest solid voxel (0 inside)."""
+    """Occupancy of the union on a fine grid: voxel (i, j, k) has centre ``origin + (i, j, k) * pitch``."""
 
     origin: np.ndarray
     pitch: float
     occupied: np.ndarray
-    distance: np.ndarray
+    #: Signed distance to the solid's boundary (negative inside), for sampling between voxel centres.
+    signed: np.ndarray
     bounds: np.ndarray
+
+    def signed_distance(self, points: np.ndarray) -> np.ndarray:
+        """Trilinear signed distance at points [P, 3] (positive outside; far outside the grid: its edge value)."""
+        from scipy import ndimage
+
+        coords = ((np.asarray(points) - self.origin) / self.pitch).T
+        return ndimage.map_coordinates(self.signed, coords, order=1, mode="nearest")
 
 
 def _union_solid(subtypes: tuple[str, ...], pitch: float = FINE_PITCH, margin: float = 0.08) -> _Solid:
@@ -137,10 +161,14 @@ def _union_solid(subtypes: tuple[str, ...], pitch: float = FINE_PITCH, margin: f
         points = _surface_lattice(np.asarray(mesh.vertices), np.asarray(mesh.faces), pitch)
         idx = np.rint((points - origin) / pitch).astype(np.int64)
         shell[idx[:, 0], idx[:, 1], idx[:, 2]] = True
-    # One dilation seals any sampling gaps before the interiors of the (closed) part shells are filled.
+    # One dilation seals any sampling gaps before the interiors of the (closed) part shells are filled; one erosion
+    # then gives the seal back (the shell itself is kept, so thin plates and spokes survive).
     occupied = ndimage.binary_fill_holes(ndimage.binary_dilation(shell))
+    occupied = ndimage.binary_erosion(occupied) | shell
     distance = ndimage.distance_transform_edt(~occupied, sampling=pitch).astype(np.float32)
-    return _Solid(origin, pitch, occupied, distance, np.stack([lo, hi]))
+    depth = ndimage.distance_transform_edt(occupied, sampling=pitch).astype(np.float32)
+    signed = np.where(occupied, pitch / 2 - depth, distance - pitch / 2)
+    return _Solid(origin, pitch, occupied, signed, np.stack([lo, hi]))
 
 
 def _surface_lattice(vertices: np.ndarray, faces: np.ndarray, spacing: float) -> np.ndarray:
@@ -174,31 +202,32 @@ class _Lattice:
     occupied: np.ndarray
 
 
-def _coarse_occupancy(solid: _Solid, spacing: float, dilation: float = DILATION, pad: int = 3) -> _Lattice:
+def _coarse_occupancy(solid: _Solid, spacing: float, pad: int = 3) -> _Lattice:
     from scipy import ndimage
 
-    radius = dilation * spacing
     lo, hi = solid.bounds
     # Symmetric in x and y about the canonical centre, so a left-right symmetric union gives a symmetric mesh.
-    half = np.ceil((np.maximum(np.abs(lo[:2]), np.abs(hi[:2])) + radius) / spacing).astype(int) + pad
-    top = int(np.ceil((hi[2] + radius) / spacing)) + pad
-    ii = np.arange(-half[0], half[0] + 1) * spacing
-    jj = np.arange(-half[1], half[1] + 1) * spacing
-    kk = (np.arange(-pad, top + 1) + 0.5) * spacing
-    X, Y, Z = np.meshgrid(ii, jj, kk, indexing="ij")
-    idx = np.rint((np.stack([X, Y, Z], axis=-1) - solid.origin) / solid.pitch).astype(np.int64)
-    inside = np.all((idx >= 0) & (idx < np.asarray(solid.distance.shape)), axis=-1)
-    idx = np.clip(idx, 0, np.asarray(solid.distance.shape) - 1)
-    dist = solid.distance[idx[..., 0], idx[..., 1], idx[..., 2]]
-    above = Z > 0
-    occ = inside & (dist <= radius) & above
-    ball = ndimage.generate_binary_structure(3, 1)
-    occ = ndimage.binary_closing(occ, structure=ball, iterations=1) & above
+    half = np.ceil(np.maximum(np.abs(lo[:2]), np.abs(hi[:2])) / spacing).astype(int) + pad
+    top = int(np.ceil(hi[2] / spacing)) + pad
+    levels = [np.arange(-half[0], half[0] + 1) * spacing, np.arange(-half[1], half[1] + 1) * spacing,
+              (np.arange(-pad, top + 1) + 0.5) * spacing]
+    origin = np.array([axis[0] for axis in levels])
+    above = np.broadcast_to(levels[2] > 0, tuple(len(axis) for axis in levels))
+    occ = _max_pool(solid, origin, spacing, above.shape)
+    occ = ndimage.binary_closing(occ, structure=ndimage.generate_binary_structure(3, 1)) & above
     occ = ndimage.binary_fill_holes(occ)
-    occ = _well_composed(occ)
-    occ = _largest_component(occ)
-    origin = np.array([ii[0], jj[0], kk[0]])
-    return _Lattice(origin, spacing, occ)
+    return _Lattice(origin, spacing, _well_composed(occ))
+
+
+def _max_pool(solid: _Solid, origin: np.ndarray, spacing: float, shape: tuple[int, ...]) -> np.ndarray:
+    """Lattice points whose cell (the cube of side ``spacing`` around them) holds solid: nothing of the solid, however
+    thin (a handlebar, a wing tip), falls between lattice points. Solid under the lowest level counts for it."""
+    centres = solid.origin + np.argwhere(solid.occupied) * solid.pitch
+    idx = np.rint((centres - origin) / spacing).astype(np.int64)
+    idx[:, 2] = np.maximum(idx[:, 2], int(np.rint(-origin[2] / spacing + 0.5)))  # the first level above ground
+    out = np.zeros(shape, dtype=bool)
+    out[idx[:, 0], idx[:, 1], idx[:, 2]] = True
+    return out
 
 
 def _well_composed(occ: np.ndarray, max_rounds: int = 50) -> np.ndarray:
@@ -221,8 +250,7 @@ def _critical_2d(occ: np.ndarray) -> np.ndarray:
     """Voxels to fill to remove 2x2 diagonal patterns in every axis-aligned plane."""
     fill = np.zeros_like(occ)
     for u, v in ((0, 1), (0, 2), (1, 2)):
-        a = _shifted(occ, {}), _shifted(occ, {u: 1}), _shifted(occ, {v: 1}), _shifted(occ, {u: 1, v: 1})
-        p00, p10, p01, p11 = a
+        p00, p10, p01, p11 = (_shifted(occ, o) for o in ({}, {u: 1}, {v: 1}, {u: 1, v: 1}))
         diag = p00 & p11 & ~p10 & ~p01
         anti = p10 & p01 & ~p00 & ~p11
         bad = diag | anti
@@ -258,16 +286,6 @@ def _unshift(cells: np.ndarray, offsets: dict[int, int], shape: tuple[int, ...])
     sl = tuple(slice(offsets.get(ax, 0), shape[ax] - 1 + offsets.get(ax, 0)) for ax in range(3))
     out[sl] = cells
     return out
-
-
-def _largest_component(occ: np.ndarray) -> np.ndarray:
-    from scipy import ndimage
-
-    labels, n = ndimage.label(occ)
-    if n <= 1:
-        return occ
-    sizes = np.bincount(labels.ravel())[1:]
-    return labels == 1 + int(np.argmax(sizes))
 
 
 # --- step 3: surface nets -----------------------------------------------------------------------------------------
@@ -324,17 +342,36 @@ def _axis_quads(occ: np.ndarray, index: np.ndarray, axis: int) -> np.ndarray:
 
 
 def _extract(solid: _Solid, spacing: float) -> tuple[np.ndarray, np.ndarray]:
-    """The smoothed surface (canonical units) at one lattice spacing."""
-    lattice = _coarse_occupancy(solid, spacing)
-    verts, faces = surface_nets(lattice.occupied)
-    verts = lattice.origin + verts * lattice.spacing
-    mesh = _as_trimesh(verts, faces)
+    """The smoothed surface (canonical units) at one lattice spacing: surface nets, then rounds of Taubin smoothing
+    each followed by the push back out to the clearance (smoothing under the constraint of enclosure)."""
     import trimesh
 
-    trimesh.smoothing.filter_taubin(mesh, iterations=SMOOTHING_ITERATIONS)
-    verts = np.asarray(mesh.vertices).copy()
-    verts[:, 2] = np.maximum(verts[:, 2], 0.0)  # the base stays on the ground
-    return verts, np.asarray(mesh.faces)
+    lattice = _coarse_occupancy(solid, spacing)
+    verts, faces = surface_nets(lattice.occupied)
+    mesh = _as_trimesh(lattice.origin + verts * lattice.spacing, faces)
+    laplacian = trimesh.smoothing.laplacian_calculation(mesh)
+    for _ in range(SMOOTHING_ROUNDS):
+        trimesh.smoothing.filter_taubin(mesh, iterations=SMOOTHING_ITERATIONS, laplacian_operator=laplacian)
+        verts = np.asarray(mesh.vertices).copy()
+        verts[:, 2] = np.maximum(verts[:, 2], 0.0)  # the base stays on the ground
+        mesh.vertices = _push_out(verts, faces, solid, CLEARANCE * spacing)
+    return np.asarray(mesh.vertices), faces
+
+
+def _push_out(verts: np.ndarray, faces: np.ndarray, solid: _Solid, clearance: float, rounds: int = 4) -> np.ndarray:
+    """Move vertices outward along their normals until each is ``clearance`` outside the solid.
+
+    Smoothing rounds off thin features (wing tips, tyre edges) and pulls the surface into the solid there; this
+    restores enclosure locally without fattening the rest of the mesh."""
+    verts = verts.copy()
+    for _ in range(rounds):
+        deficit = clearance - solid.signed_distance(verts)
+        if not (deficit > 1e-4).any():
+            break
+        normals = np.asarray(_as_trimesh(verts, faces).vertex_normals)
+        verts += np.clip(deficit, 0.0, None)[:, None] * normals
+        verts[:, 2] = np.maximum(verts[:, 2], 0.0)
+    return verts
 
 
 def _search_spacing(solid: _Solid, target: int = TARGET_VERTICES, band: tuple[int, int] = VERTEX_BAND,
@@ -464,40 +501,59 @@ def pose_vertices_torch(vertices: torch.Tensor, x: torch.Tensor, y: torch.Tensor
 
 
 def category_sheet(*, tile: tuple[int, int] = (240, 180), view: tuple[float, float] = (40.0, 25.0)) -> np.ndarray:
-    """A contact sheet (BGR uint8): one row per category, its mesh first (with the vertex count) then each subtype
-    drawn from the same camera, the category mesh's outline overlaid in red on the subtypes."""
+    """A contact sheet (BGR uint8): one row per category, its mesh first (grey, with its vertex count), then each
+    subtype (parts coloured) from the same camera with the category mesh's outline overlaid in red."""
     import cv2
 
-    from po3d_ppl.world.contact_sheet import _label, _to_bgr8, shade, view_camera
+    from po3d_ppl.world.contact_sheet import shade, view_camera
     from po3d_ppl.world.meshes import vehicle_mesh
-    from po3d_ppl.world.meshes.assembly import VehicleMesh
     from po3d_ppl.world.raycast import RayCaster, camera_rays
 
     w, h = tile
+    columns = 1 + max(len(subtypes_of(c)) for c in ontology.CATEGORIES)
     rows = []
-    width = 1 + max(len(subtypes_of(c)) for c in ontology.CATEGORIES)
     for category in ontology.CATEGORIES:
         cm = category_mesh(category)
-        tm = cm.trimesh()
         camera = view_camera(cm.bounds[1] - cm.bounds[0], *view, w, h, fill=0.8)
-        fake = VehicleMesh(category, tm, np.full(len(tm.faces), -1, np.int16), np.zeros(len(tm.faces), np.int8))
-        first = _to_bgr8(shade(fake, camera))
-        _label(first, f"{category}: {cm.num_vertices} v", (6, 18), 0.5)
         origins, dirs = camera_rays(camera)
-        outline = RayCaster([tm]).cast(origins, dirs).hit.reshape(h, w).astype(np.uint8)
-        contours, _ = cv2.findContours(outline, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
-        cells = [first]
+        hits = RayCaster([cm.trimesh()]).cast(origins, dirs)
+        cells = [_bgr8(_grey_shading(hits, dirs, h, w))]
+        _text(cells[0], f"{category}: {cm.num_vertices} vertices")
+        contours, _ = cv2.findContours(hits.hit.reshape(h, w).astype(np.uint8), cv2.RETR_EXTERNAL,
+                                       cv2.CHAIN_APPROX_NONE)
         for subtype in cm.subtypes:
-            tile_img = _to_bgr8(shade(vehicle_mesh(subtype), camera))
-            cv2.drawContours(tile_img, contours, -1, (0, 0, 230), 1)
-            _label(tile_img, subtype, (6, 18), 0.5)
-            cells.append(tile_img)
-        cells += [np.full_like(first, 255)] * (width - len(cells))
+            cell = _bgr8(shade(vehicle_mesh(subtype), camera))
+            cv2.drawContours(cell, contours, -1, (0, 0, 230), 1)
+            _text(cell, subtype)
+            cells.append(cell)
+        cells += [np.full_like(cells[0], 255)] * (columns - len(cells))
         rows.append(np.concatenate(cells, axis=1))
     sheet = np.concatenate(rows, axis=0)
     sheet[::h, :] = 200
     sheet[:, ::w] = 200
     return sheet
+
+
+def _grey_shading(hits, dirs: np.ndarray, h: int, w: int) -> np.ndarray:
+    """Two-sided Lambert shading of ray hits on a white background (RGB float [h, w, 3])."""
+    img = np.ones((len(hits), 3))
+    n = hits.normal[hits.hit].astype(np.float64)
+    view = -dirs[hits.hit].astype(np.float64)
+    n *= np.sign(np.sum(n * view, axis=1, keepdims=True) + 1e-12)
+    key = np.array([0.3, 0.5, 0.8]) / np.linalg.norm([0.3, 0.5, 0.8])
+    light = 0.3 + 0.45 * np.clip(n @ key, 0, 1) + 0.25 * np.clip(np.sum(n * view, axis=1), 0, 1)
+    img[hits.hit] = 0.75 * light[:, None]
+    return img.reshape(h, w, 3)
+
+
+def _bgr8(rgb: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray((np.clip(rgb, 0, 1) * 255).round().astype(np.uint8)[..., ::-1])
+
+
+def _text(img: np.ndarray, text: str) -> None:
+    import cv2
+
+    cv2.putText(img, text, (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (20, 20, 20), 1, cv2.LINE_AA)
 
 
 def write_category_sheet(path: str | Path) -> Path:
@@ -508,6 +564,7 @@ def write_category_sheet(path: str | Path) -> Path:
 
 
 __all__ = [
-    "CategoryMesh", "all_category_meshes", "category_mesh", "category_sheet", "distance_to_surface", "pose_category_mesh", "pose_matrix",
-    "pose_vertices_torch", "subtypes_of", "surface_nets", "write_category_sheet",
+    "CategoryMesh", "all_category_meshes", "build_category_mesh", "category_mesh", "category_sheet",
+    "distance_to_surface", "pose_category_mesh", "pose_matrix", "pose_vertices_torch", "subtypes_of", "surface_nets",
+    "write_category_sheet",
 ]
