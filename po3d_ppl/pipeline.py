@@ -12,18 +12,20 @@ Answers are marginalised over the parser's n-best programs, weighted by their pr
 
 from __future__ import annotations
 
-from po3d_ppl.reasoning import AnswerDistribution, SceneReasoner
+from po3d_ppl.reasoning import AnswerDistribution, Budget, SceneReasoner
 
 
 def answer_question(reasoner: SceneReasoner, question: str, parser=None, *, n_best: int = 3, method: str = "auto",
-                    num_samples: int = 4096, seed: int = 0) -> tuple[AnswerDistribution, object]:
+                    num_samples: int = 4096, seed: int = 0, budget: Budget | None = None
+                    ) -> tuple[AnswerDistribution, object]:
     """(the answer distribution marginalised over the n-best programs, the parse); ``parser`` defaults to the
-    shipped :class:`~po3d_ppl.language.QuestionParser`."""
+    shipped :class:`~po3d_ppl.language.QuestionParser`; ``budget`` bounds each program's inference call."""
     if parser is None:
         from po3d_ppl.language import QuestionParser
 
         parser = QuestionParser.load()
     parse = parser.parse(question, n=n_best)
-    weighted = [(candidate.probability, reasoner.infer(candidate.program, method, num_samples=num_samples, seed=seed))
+    weighted = [(candidate.probability, reasoner.infer(candidate.program, method, num_samples=num_samples, seed=seed,
+                                                       budget=budget))
                 for candidate in parse.candidates]
     return AnswerDistribution.mixture(weighted, method=method), parse

@@ -15,9 +15,12 @@ def answer(
     index: int = typer.Option(None, "--index", help="Which scene of a scenes file."),
     noise: float = typer.Option(0.0, "--noise", help="Sensor noise of the evidence made from the scene (0 = certain)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the evidence noise and of sampling."),
-    method: str = typer.Option("auto", "--method", help="auto, exact, sampling, dense, generic, thresholded, soft."),
+    method: str = typer.Option("auto", "--method", help="auto, exact, sampling, thresholded, soft."),
     samples: int = typer.Option(4096, "--samples", help="Posterior samples for method=sampling."),
     n_best: int = typer.Option(3, "--parses", help="Parses of the question to marginalise over."),
+    max_gib: float = typer.Option(2.0, "--max-gib", help="Memory budget of the inference call, GiB."),
+    max_seconds: float = typer.Option(10.0, "--max-seconds", help="Time budget of the inference call, seconds "
+                                                                  "(auto falls back to sampling past half of it)."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of a table."),
 ) -> None:
     """Print the answer distribution for QUESTION (or --program) about the scene.
@@ -33,7 +36,7 @@ def answer(
     from po3d_ppl.errors import InputError
     from po3d_ppl.perception import simulated_evidence
     from po3d_ppl.pipeline import answer_question
-    from po3d_ppl.reasoning import SceneReasoner
+    from po3d_ppl.reasoning import Budget, SceneReasoner
 
     check_seed(seed)
     if (question is None) == (program is None):
@@ -42,12 +45,17 @@ def answer(
         raise InputError("--samples", f"must be >= 1, got {samples}")
     if n_best < 1:
         raise InputError("--parses", f"must be >= 1, got {n_best}")
+    if not 0 < max_gib < 1 << 20:
+        raise InputError("--max-gib", f"must be a positive number of GiB, got {max_gib}")
+    budget = Budget(max_bytes=max(int(max_gib * 2**30), 1 << 20), max_seconds=max_seconds)
     reasoner = SceneReasoner(simulated_evidence(load_scene_arg(scene, index), noise=noise, seed=seed))
     parse = None
     if program is not None:
-        dist = reasoner.infer(read_program_arg(program, allow_text=True), method, num_samples=samples, seed=seed)
+        dist = reasoner.infer(read_program_arg(program, allow_text=True), method, num_samples=samples, seed=seed,
+                              budget=budget)
     else:
-        dist, parse = answer_question(reasoner, question, n_best=n_best, method=method, num_samples=samples, seed=seed)
+        dist, parse = answer_question(reasoner, question, n_best=n_best, method=method, num_samples=samples,
+                                      seed=seed, budget=budget)
     console = Console()
     if as_json:
         out = dist.to_dict()
