@@ -11,8 +11,16 @@ import trimesh
 from po3d_ppl import ontology
 from po3d_ppl.errors import InputError, UnknownNameError
 from po3d_ppl.perception.category_meshes import (
-    all_category_meshes, build_category_mesh, category_mesh, category_sheet, distance_to_surface,
-    pose_category_mesh, pose_matrix, pose_vertices_torch, subtypes_of, surface_nets,
+    all_category_meshes,
+    build_category_mesh,
+    category_mesh,
+    category_sheet,
+    distance_to_surface,
+    pose_category_mesh,
+    pose_matrix,
+    pose_vertices_torch,
+    subtypes_of,
+    surface_nets,
 )
 from po3d_ppl.world.meshes import vehicle_mesh
 from po3d_ppl.world.raycast import RayCaster, camera_rays
@@ -42,7 +50,7 @@ def test_one_closed_mesh_of_about_1000_vertices_per_category(meshes):
 
 
 def test_every_subtype_is_enclosed(meshes):
-    for category, cm in meshes.items():
+    for cm in meshes.values():
         tm = cm.trimesh()
         for subtype in cm.subtypes:
             v = np.asarray(vehicle_mesh(subtype).mesh.vertices)

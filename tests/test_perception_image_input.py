@@ -11,7 +11,13 @@ import torch
 
 from po3d_ppl.errors import ImageError, InputError, Po3dError
 from po3d_ppl.perception.image_input import (
-    MAX_SIDE, MIN_SIDE, CameraPrior, backproject_to_plane, load_image, pixel_directions, project_points,
+    MAX_SIDE,
+    MIN_SIDE,
+    CameraPrior,
+    backproject_to_plane,
+    load_image,
+    pixel_directions,
+    project_points,
 )
 from po3d_ppl.world.sampler import SceneConfig, clevr_intrinsics, make_camera, sample_camera
 
@@ -114,6 +120,11 @@ def test_aspect_within_one_percent_is_resized_per_axis():
     K0 = np.asarray(clevr_intrinsics(643, 481))
     np.testing.assert_allclose(im.K, np.diag([sx, sy, 1.0]) @ K0)
     assert im.size == (640, 480)
+
+
+def test_a_loaded_image_passes_through():
+    im = load_image(_gradient(480, 640))
+    assert load_image(im) is im
 
 
 def test_a_smaller_working_size():

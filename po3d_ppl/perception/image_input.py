@@ -45,7 +45,7 @@ RGBA_BACKGROUND = 0.5
 Array = np.ndarray | torch.Tensor
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ImageInput:
     """An image in perception's canonical form.
 
@@ -87,11 +87,14 @@ class ImageInput:
 def load_image(image: Any, *, size: tuple[int, int] = WORKING_SIZE, device: torch.device | str | None = None
                ) -> ImageInput:
     """Read ``image`` (a path, a numpy HWC/HW array of uint8, uint16 or floats in [0, 1], or a PIL image) into
-    an :class:`ImageInput` at ``size`` (width, height). Grayscale and RGBA become RGB.
+    an :class:`ImageInput` at ``size`` (width, height). Grayscale and RGBA become RGB. An :class:`ImageInput`
+    already at ``size`` is returned as it is.
 
     Raises :class:`ImageError` for unreadable files, arrays of the wrong dtype or shape, NaN or out-of-range
     values, sides outside [MIN_SIDE, MAX_SIDE], and aspect ratios that differ from ``size``'s by more than 1%.
     """
+    if isinstance(image, ImageInput) and image.size == tuple(size):
+        return image if device is None else dataclasses.replace(image, pixels=image.pixels.to(device))
     source, raw, bgr = _read_any(image)
     _check_shape(raw, source)
     h0, w0 = raw.shape[:2]
@@ -380,6 +383,14 @@ def backproject_to_plane(camera: Camera, pixels: Array, height: float | Array = 
 
 
 __all__ = [
-    "ASPECT_TOLERANCE", "CameraPrior", "ImageInput", "MAX_SIDE", "MIN_SIDE", "WORKING_SIZE", "backproject_to_plane",
-    "load_image", "pixel_directions", "project_points",
+    "ASPECT_TOLERANCE",
+    "MAX_SIDE",
+    "MIN_SIDE",
+    "WORKING_SIZE",
+    "CameraPrior",
+    "ImageInput",
+    "backproject_to_plane",
+    "load_image",
+    "pixel_directions",
+    "project_points",
 ]
