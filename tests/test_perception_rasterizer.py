@@ -107,7 +107,7 @@ def test_batching_over_poses_and_meshes_equals_one_at_a_time():
     other_cam, other = views_of("biplane", 5)
     packed_v, packed_f = pad_meshes([(verts[0], faces), (stacked(other[:1])[0], faces_of("biplane"))])
     cam = camera_tensors(camera)
-    mixed = rasterize(packed_v, packed_f, cam.intrinsics, cam.image_size, cam.world_to_camera, max_candidates=64)
+    mixed = rasterize(packed_v, packed_f, cam.intrinsics, cam.image_size, cam.world_to_camera, max_candidates=4096)
     assert torch.equal(mixed.face_map[0], together.face_map[0])
     alone = rasterize(stacked(other[:1]), faces_of("biplane"), cam.intrinsics, cam.image_size, cam.world_to_camera)
     assert torch.equal(mixed.face_map[1], alone.face_map[0])
