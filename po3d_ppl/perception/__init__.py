@@ -4,6 +4,11 @@ A back-end is anything with ``evidence(observation) -> SceneEvidence`` (:class:`
 one, the simulated sensor (:mod:`po3d_ppl.perception.simulated`); the render-and-compare parser (issue
 "Perception I/II") will be the second, behind the same interface. Perception imports the world and the contract
 (:mod:`po3d_ppl.evidence`), never reasoning.
+
+Foundations of the render-and-compare parser, in place: image input with the world's camera prior
+(:mod:`~po3d_ppl.perception.image_input`), category-level meshes that enclose each category's subtypes
+(:mod:`~po3d_ppl.perception.category_meshes`) and a torch rasteriser (:mod:`~po3d_ppl.perception.rasterizer`).
+They are imported lazily (the simulated sensor needs none of them).
 """
 
 from __future__ import annotations
@@ -25,4 +30,20 @@ class EvidenceSource(Protocol):
         ...
 
 
-__all__ = ["EvidenceSource", "SceneEvidence", "SimulatedSensor", "simulated_evidence"]
+_LAZY = {
+    "load_image": "image_input", "ImageInput": "image_input", "CameraPrior": "image_input",
+    "project_points": "image_input", "backproject_to_plane": "image_input", "pixel_directions": "image_input",
+    "CategoryMesh": "category_meshes", "category_mesh": "category_meshes", "all_category_meshes": "category_meshes",
+    "pose_category_mesh": "category_meshes", "pose_vertices_torch": "category_meshes",
+    "write_category_sheet": "category_meshes",
+}
+
+__all__ = ["EvidenceSource", "SceneEvidence", "SimulatedSensor", "simulated_evidence", *_LAZY]
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(f"po3d_ppl.perception.{_LAZY[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
