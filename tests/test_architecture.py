@@ -26,7 +26,7 @@ ALLOWED = {
     "language": BASE | {"catalogue", "model_store"},
     "questions": BASE | {"catalogue", "world", "language"},
     "evidence": BASE | {"world"},
-    "perception": BASE | {"world", "evidence"},
+    "perception": BASE | {"world", "evidence", "model_store"},
     "reasoning": BASE | {"catalogue", "world", "evidence", "language"},
     "pipeline": BASE | {"language", "reasoning"},
     "cli": None,  # the command line may use every stage
