@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from functools import partial
 
 import numpy as np
 import torch
@@ -57,10 +58,10 @@ def bench(subtypes: list[str], poses: int, camera: Camera, repeats: int) -> dict
         verts = torch.as_tensor(np.stack([m.vertices for m in meshes]), dtype=torch.float32)
         faces = torch.as_tensor(np.asarray(vehicle_mesh(s).mesh.faces), dtype=torch.int64)
         rasterize_camera(verts, faces, camera)  # warm-up
-        totals["raster"] += median_time(lambda: rasterize_camera(verts, faces, camera), repeats)
+        totals["raster"] += median_time(partial(rasterize_camera, verts, faces, camera), repeats)
         totals["raster_culled"] += median_time(
-            lambda: rasterize_camera(verts, faces, camera, cull_backfaces=True), repeats)
-        totals["embree"] += median_time(lambda: embree_masks(meshes, camera), repeats)
+            partial(rasterize_camera, verts, faces, camera, cull_backfaces=True), repeats)
+        totals["embree"] += median_time(partial(embree_masks, meshes, camera), repeats)
         ours = rasterize_camera(verts, faces, camera).mask.numpy()
         ref = embree_masks(meshes, camera)
         iou = (ours & ref).sum(axis=(1, 2)) / np.maximum((ours | ref).sum(axis=(1, 2)), 1)

@@ -11,7 +11,12 @@ import torch
 from po3d_ppl import ontology
 from po3d_ppl.errors import InputError
 from po3d_ppl.perception.rasterizer import (
-    Fragments, camera_tensors, pad_meshes, project_vertices, rasterize, rasterize_camera,
+    Fragments,
+    camera_tensors,
+    pad_meshes,
+    project_vertices,
+    rasterize,
+    rasterize_camera,
 )
 from po3d_ppl.world.meshes import vehicle_mesh
 from po3d_ppl.world.renderer import PlacedMesh, cast_alone, pixel_directions, place_meshes
@@ -104,7 +109,7 @@ def test_batching_over_poses_and_meshes_equals_one_at_a_time():
         torch.testing.assert_close(together.depth_map[i], alone.depth_map[0])
         torch.testing.assert_close(together.bary_map[i], alone.bary_map[0])
     # different meshes in one batch, padded; and tiny chunks of candidates give the same buffer
-    other_cam, other = views_of("biplane", 5)
+    _, other = views_of("biplane", 5)
     packed_v, packed_f = pad_meshes([(verts[0], faces), (stacked(other[:1])[0], faces_of("biplane"))])
     cam = camera_tensors(camera)
     mixed = rasterize(packed_v, packed_f, cam.intrinsics, cam.image_size, cam.world_to_camera, max_candidates=4096)
@@ -212,22 +217,27 @@ def test_empty_offscreen_and_behind_camera_meshes_are_background():
 
 
 def test_gradients_match_finite_differences():
-    """Two overlapping triangles at different depths in the camera frame; features and depth of every covered
-    pixel as a function of the vertex positions, checked by torch's finite-difference gradcheck."""
+    """Two overlapping triangles at different depths; features and depth of every covered pixel as a function of
+    the vertex positions, the intrinsics and the camera pose, checked by torch's finite-difference gradcheck."""
     verts = torch.tensor([[[-1.0, -0.8, -3.0], [1.2, -0.5, -3.5], [0.1, 1.1, -2.5],
                            [-0.6, 0.2, -2.0], [0.9, 0.6, -2.2], [0.3, -0.9, -1.9]]], dtype=torch.float64)
     faces = torch.tensor([[0, 1, 2], [3, 4, 5]])
     K = torch.tensor([[20.0, 0.0, 16.0], [0.0, 20.0, 12.0], [0.0, 0.0, 1.0]], dtype=torch.float64)
+    w2c = torch.eye(4, dtype=torch.float64)  # a small rotation and shift of the camera frame
+    w2c[:3, :3] = torch.linalg.matrix_exp(torch.tensor([[0.0, -0.02, 0.01], [0.02, 0.0, -0.03], [-0.01, 0.03, 0.0]],
+                                                        dtype=torch.float64))
+    w2c[:3, 3] = torch.tensor([0.05, -0.02, 0.1])
     feats = torch.randn(1, 6, 2, dtype=torch.float64, generator=torch.Generator().manual_seed(0))
-    frags = rasterize(verts, faces, K, (24, 32))
+    frags = rasterize(verts, faces, K, (24, 32), w2c)
     assert frags.mask.sum() > 50 and set(frags.face.tolist()) == {0, 1}
 
-    def render(v: torch.Tensor) -> torch.Tensor:
-        f = rasterize(v, faces, K, (24, 32))
+    def render(v: torch.Tensor, k: torch.Tensor, pose: torch.Tensor) -> torch.Tensor:
+        f = rasterize(v, faces, k, (24, 32), pose)
         assert torch.equal(f.pixel, frags.pixel) and torch.equal(f.face, frags.face)
         return torch.cat([f.interpolate_sparse(feats).reshape(-1), f.depth])
 
-    assert torch.autograd.gradcheck(render, (verts.clone().requires_grad_(),), eps=1e-6, atol=1e-6)
+    inputs = tuple(t.clone().requires_grad_() for t in (verts, K, w2c))
+    assert torch.autograd.gradcheck(render, inputs, eps=1e-6, atol=1e-6)
 
 
 def test_pose_gradients_reach_the_yaw_through_a_vehicle_render():
@@ -251,19 +261,19 @@ def test_bad_inputs_raise_input_errors_naming_the_argument():
     verts, faces = grid_mesh(3)
     K = torch.eye(3, dtype=torch.float64)
     bad = [
-        (dict(vertices=verts[0]), "vertices"),
-        (dict(vertices=verts.long()), "vertices"),
-        (dict(vertices=verts.clone().index_fill_(1, torch.tensor([0]), float("nan"))), "vertices"),
-        (dict(faces=faces.double()), "faces"),
-        (dict(faces=faces[:, :2]), "faces"),
-        (dict(faces=faces + 100), "faces"),
-        (dict(intrinsics=torch.eye(4, dtype=torch.float64)), "intrinsics"),
-        (dict(world_to_camera=torch.eye(3, dtype=torch.float64)), "world_to_camera"),
-        (dict(image_size=(0, 5)), "image_size"),
-        (dict(image_size=(4.5, 5)), "image_size"),
+        ({"vertices": verts[0]}, "vertices"),
+        ({"vertices": verts.long()}, "vertices"),
+        ({"vertices": verts.clone().index_fill_(1, torch.tensor([0]), float("nan"))}, "vertices"),
+        ({"faces": faces.double()}, "faces"),
+        ({"faces": faces[:, :2]}, "faces"),
+        ({"faces": faces + 100}, "faces"),
+        ({"intrinsics": torch.eye(4, dtype=torch.float64)}, "intrinsics"),
+        ({"world_to_camera": torch.eye(3, dtype=torch.float64)}, "world_to_camera"),
+        ({"image_size": (0, 5)}, "image_size"),
+        ({"image_size": (4.5, 5)}, "image_size"),
     ]
     for change, field in bad:
-        args = dict(vertices=verts, faces=faces, intrinsics=K, image_size=(8, 8)) | change
+        args = {"vertices": verts, "faces": faces, "intrinsics": K, "image_size": (8, 8)} | change
         with pytest.raises(InputError) as err:
             rasterize(**args)
         assert err.value.field == field, change

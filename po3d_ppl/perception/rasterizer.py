@@ -41,6 +41,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 import torch
@@ -140,7 +141,7 @@ class Fragments:
         """[N, 3] vertex indices of each covered pixel's triangle."""
         return _vertex_index(self.faces, self.batch_index, self.face)
 
-    def _dense(self, values: torch.Tensor, fill: float | int) -> torch.Tensor:
+    def _dense(self, values: torch.Tensor, fill: float) -> torch.Tensor:
         shape = (self.batch * self.height * self.width, *values.shape[1:])
         out = torch.full(shape, fill, dtype=values.dtype, device=values.device)
         return out.index_copy(0, self.pixel, values).view(self.batch, self.height, self.width, *values.shape[1:])
@@ -358,7 +359,7 @@ def _chunks(counts: torch.Tensor, max_candidates: int) -> list[slice]:
     cuts = torch.searchsorted(ends, torch.arange(max_candidates, total, max_candidates, device=counts.device),
                               right=True)
     bounds = sorted({0, *cuts.tolist(), counts.numel()})
-    return [slice(lo, hi) for lo, hi in zip(bounds[:-1], bounds[1:])]
+    return [slice(lo, hi) for lo, hi in pairwise(bounds)]
 
 
 def _expand(counts: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
