@@ -7,6 +7,9 @@ back-face culling, and of ``renderer.cast_alone`` (embree, one pose at a time, r
 projected box), and their ratio; and the silhouette IoU between the two.
 
     python benchmarks/bench_rasterizer.py [--repeats 5] [--threads 2] [--poses 8] [--subtypes sedan,road,...]
+
+On a machine whose cores are busy with other work, run ``--threads 1`` or set ``OMP_WAIT_POLICY=passive``:
+OpenMP's spin-waiting otherwise makes two intra-op threads several times slower than one.
 """
 
 from __future__ import annotations

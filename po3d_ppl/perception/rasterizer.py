@@ -23,7 +23,8 @@ device).
 **Speed** (``benchmarks/bench_rasterizer.py``): cost grows with triangles plus covered pixels times depth
 complexity, so batch many meshes x poses per call (a call has a fixed ~1 ms of op dispatch) and render at the
 feature-map stride when that is all a loss needs. ``cull_backfaces=True`` halves the work on closed meshes. The
-work is many medium-sized torch ops: on a busy 2-core machine one intra-op thread is faster than two.
+work is many medium-sized torch ops: on a busy 2-core machine OpenMP's spin-waiting makes two intra-op threads
+up to 10x slower than one, so set ``OMP_WAIT_POLICY=passive`` or ``torch.set_num_threads(1)`` there.
 
 **Conventions are the world's** (:class:`po3d_ppl.world.scene.Camera`, :mod:`po3d_ppl.world.raycast`): the camera
 frame is Blender/OpenGL (looks along -z, +y up); pixel coordinates start at the top-left *corner* of the image
