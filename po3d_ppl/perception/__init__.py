@@ -36,6 +36,9 @@ _LAZY = {
     "CategoryMesh": "category_meshes", "category_mesh": "category_meshes", "all_category_meshes": "category_meshes",
     "pose_category_mesh": "category_meshes", "pose_vertices_torch": "category_meshes",
     "write_category_sheet": "category_meshes",
+    "rasterize": "rasterizer", "rasterize_camera": "rasterizer", "Fragments": "rasterizer",
+    "CameraTensors": "rasterizer", "camera_tensors": "rasterizer", "project_vertices": "rasterizer",
+    "pad_meshes": "rasterizer", "scaled_intrinsics": "rasterizer",
 }
 
 __all__ = ["EvidenceSource", "SceneEvidence", "SimulatedSensor", "simulated_evidence", *_LAZY]
