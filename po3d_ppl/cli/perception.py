@@ -36,8 +36,8 @@ def _metrics_table(console, rows: dict[str, dict], title: str) -> None:
 
     from po3d_ppl.cli._common import literal
 
-    keys = ("within_exact", "within_radius", "across_exact", "across_radius", "category_top1", "fg_bg_auc",
-            "fg_bg_auc_vs_clutter")
+    keys = ("within_exact", "within_radius", "within_radius_2x", "across_exact", "across_radius",
+            "across_radius_2x", "category_top1", "fg_bg_auc", "fg_bg_auc_vs_clutter")
     table = Table(title=literal(title))
     table.add_column("model")
     for k in keys:

@@ -542,8 +542,8 @@ def evaluate_features(model: FeatureModel, images: Sequence[TrainingImage], radi
     """What the features tell apart, on ``images`` (held-out: never trained on).
 
     For every visible vertex: is the most similar texture row (within its category; across all categories) the
-    vertex itself, or one within ``radius`` mesh spacings of it on the canonical mesh? (Across categories, a hit
-    must be in the right category.) ``category_top1``: the most similar row is of the right category.
+    vertex itself, or one within ``radius`` (``_2x``: twice that) mesh spacings of it on the canonical mesh? (Across
+    categories, a hit must be in the right category.) ``category_top1``: the most similar row is of the right category.
     Foreground / background: ROC-AUC of the cell's best vertex similarity (and of it minus its clutter similarity)
     between object cells (>= half the cell in some object's ground-truth visible mask) and background cells (no
     object pixel).
@@ -557,14 +557,16 @@ def evaluate_features(model: FeatureModel, images: Sequence[TrainingImage], radi
     allv, offsets = meshes.all_vertices(), meshes.offsets()
     cat_of_row = torch.cat([torch.full((meshes.textures[c].shape[0],), i, device=device)
                             for i, c in enumerate(meshes.categories)])
-    near = {}
+    near, wide = {}, {}
     for c in meshes.categories:
         m = category_mesh(c)
         v = torch.tensor(np.array(m.vertices), dtype=torch.float32, device=device)
-        near[c] = torch.cdist(v, v) <= radius * m.spacing + 1e-6
+        dist = torch.cdist(v, v)
+        near[c] = dist <= radius * m.spacing + 1e-6
+        wide[c] = dist <= 2 * radius * m.spacing + 1e-6
     clutter = meshes.clutter_vector()
-    stats = {k: 0.0 for k in ("vertices", "within_exact", "within_radius", "across_exact", "across_radius",
-                              "category_top1")}
+    stats = {k: 0.0 for k in ("vertices", "within_exact", "within_radius", "within_radius_2x", "across_exact",
+                              "across_radius", "across_radius_2x", "category_top1")}
     fg_scores, bg_scores, fg_margin, bg_margin = [], [], [], []
     for image in images:
         fmap = extract_features(extractor, image.pixels.float() / 255.0)
@@ -580,8 +582,10 @@ def evaluate_features(model: FeatureModel, images: Sequence[TrainingImage], radi
             stats["vertices"] += ids.numel()
             stats["within_exact"] += float((within == ids).sum())
             stats["within_radius"] += float(near[c][ids, within].sum())
+            stats["within_radius_2x"] += float(wide[c][ids, within].sum())
             stats["across_exact"] += float((right_cat & (local == ids)).sum())
             stats["across_radius"] += float((right_cat & near[c][ids, local]).sum())
+            stats["across_radius_2x"] += float((right_cat & wide[c][ids, local]).sum())
             stats["category_top1"] += float(right_cat.sum())
         flat = fmap.flatten(1).T                                           # [cells, D]
         best = (flat @ allv.T).max(1).values.cpu().numpy()
