@@ -206,3 +206,24 @@ def test_cli_trains_records_and_evaluates(tmp_path, torch_one_thread):
                                       "--limit", "1", "--record"])
     assert result.exit_code == 0, result.output
     assert "command" in json.loads((out / "manifest.json").read_text())[MODEL_NAME]["metrics"]["eval_seed5"]
+
+
+def test_textures_of_other_meshes_are_refused(tmp_path):
+    from po3d_ppl.perception import neural_mesh
+
+    path = save_feature_model(_model(), tmp_path)
+    header = neural_mesh._mesh_header()
+    header["bus"] = {**header["bus"], "digest": "0" * 16}
+    with pytest.raises(ModelFileError, match="bus.*retrain"):
+        neural_mesh._check_meshes(header, path)
+
+
+def test_the_shipped_model_loads_and_runs(torch_one_thread):
+    from po3d_ppl.model_store import read_manifest
+
+    if MODEL_NAME not in read_manifest():
+        pytest.skip("no shipped perception features in models/ yet")
+    model = load_feature_model()
+    feats = extract_features(model.extractor, torch.rand(3, 480, 640))
+    assert feats.shape == (model.meshes.dim, 60, 80)
+    assert torch.allclose(feats.norm(dim=0), torch.ones(60, 80), atol=1e-4)
