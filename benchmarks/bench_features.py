@@ -60,7 +60,7 @@ def main() -> None:
         sampler = BatchSampler([image], config, g)
         opt = torch.optim.AdamW(net.parameters(), lr=config.lr)
 
-        def step() -> None:
+        def step(sampler=sampler, bank=bank, opt=opt) -> None:
             batch = sampler.batch([0] * config.batch_size)
             net.train()
             loss, _, f, b = contrastive_loss(net(batch.images), batch, bank, config)
