@@ -5,6 +5,19 @@ from __future__ import annotations
 import pytest
 
 
+@pytest.fixture(scope="session", autouse=True)
+def torch_single_thread_session():
+    """The whole suite runs torch on one thread: its tensors are small, and on a 2-core machine with another busy
+    process OpenMP's spinning threads make two threads ten times slower than one (measured: 69 s against 7 s for
+    the sampling-families test while a training job ran)."""
+    import torch
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(before)
+
+
 @pytest.fixture(scope="module")
 def torch_one_thread():
     """torch on one CPU thread for the module's tests, restored afterwards. The models under test are small: one
