@@ -16,10 +16,14 @@ from po3d_ppl.reasoning import AnswerDistribution, Budget, SceneReasoner
 
 
 def answer_question(reasoner: SceneReasoner, question: str, parser=None, *, n_best: int = 3, method: str = "auto",
-                    num_samples: int = 4096, seed: int = 0, budget: Budget | None = None
+                    num_samples: int = 4096, seed: int = 0, budget: Budget | None = None, presuppose: bool = True
                     ) -> tuple[AnswerDistribution, object]:
     """(the answer distribution marginalised over the n-best programs, the parse); ``parser`` defaults to the
-    shipped :class:`~po3d_ppl.language.QuestionParser`; ``budget`` bounds each program's inference call."""
+    shipped :class:`~po3d_ppl.language.QuestionParser`; ``budget`` bounds each program's inference call.
+
+    By default the distribution is P(answer | the question's presuppositions hold), with P(they fail) in
+    ``presupposition_failure`` and a :class:`~po3d_ppl.reasoning.answer.PresuppositionWarning` when it is high;
+    ``presuppose=False`` gives the joint with its explicit invalid outcome."""
     if parser is None:
         from po3d_ppl.language import QuestionParser
 
@@ -28,4 +32,5 @@ def answer_question(reasoner: SceneReasoner, question: str, parser=None, *, n_be
     weighted = [(candidate.probability, reasoner.infer(candidate.program, method, num_samples=num_samples, seed=seed,
                                                        budget=budget))
                 for candidate in parse.candidates]
-    return AnswerDistribution.mixture(weighted, method=method), parse
+    joint = AnswerDistribution.mixture(weighted, method=method)
+    return (joint.given_presuppositions() if presuppose else joint), parse

@@ -21,6 +21,8 @@ def answer(
     max_gib: float = typer.Option(2.0, "--max-gib", help="Memory budget of the inference call, GiB."),
     max_seconds: float = typer.Option(10.0, "--max-seconds", help="Time budget of the inference call, seconds "
                                                                   "(auto falls back to sampling past half of it)."),
+    joint: bool = typer.Option(False, "--joint", help="The joint distribution with its invalid outcome, instead of "
+                                                      "the answers given the question's presuppositions."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of a table."),
 ) -> None:
     """Print the answer distribution for QUESTION (or --program) about the scene.
@@ -53,9 +55,11 @@ def answer(
     if program is not None:
         dist = reasoner.infer(read_program_arg(program, allow_text=True), method, num_samples=samples, seed=seed,
                               budget=budget)
+        dist = dist if joint else dist.given_presuppositions(warn_above=None)
     else:
         dist, parse = answer_question(reasoner, question, n_best=n_best, method=method, num_samples=samples,
-                                      seed=seed, budget=budget)
+                                      seed=seed, budget=budget, presuppose=False)
+        dist = dist if joint else dist.given_presuppositions(warn_above=None)
     console = Console()
     if as_json:
         out = dist.to_dict()

@@ -24,6 +24,7 @@ def demo(
 ) -> None:
     """Render a scene, ask questions about it, and print answer distributions."""
     import json
+    import warnings
 
     import cv2
     from rich.console import Console
@@ -35,7 +36,7 @@ def demo(
     from po3d_ppl.perception import simulated_evidence
     from po3d_ppl.pipeline import answer_question
     from po3d_ppl.questions.scene_questions import generate_questions
-    from po3d_ppl.reasoning import SceneReasoner
+    from po3d_ppl.reasoning import PresuppositionWarning, SceneReasoner
     from po3d_ppl.world import generate_scene, save_scene
 
     check_seed(seed)
@@ -61,15 +62,18 @@ def demo(
                 picked.append((name, per_file[name].pop(0)))
     parser = QuestionParser.load()
     reasoner = SceneReasoner(simulated_evidence(scene, noise=noise, seed=seed))
-    table = Table(title=f"answers (evidence: ground truth with sensor noise {noise})", show_lines=True)
+    table = Table(title=f"answers given their presuppositions (evidence: ground truth with sensor noise {noise})",
+                  show_lines=True)
     for column in ("question", "parsed program", "answer distribution", "truth"):
         table.add_column(column)
     report = []
     for name, q in picked:
-        dist, parse = answer_question(reasoner, q["question"], parser, method=method)
+        with warnings.catch_warnings():  # the table shows the failure probability itself
+            warnings.simplefilter("ignore", PresuppositionWarning)
+            dist, parse = answer_question(reasoner, q["question"], parser, method=method)
         top = ", ".join(f"{dist.words(a)} {p:.2f}" for a, p in list(dist.probs.items())[:3])
-        if dist.invalid > 0.005:
-            top += f", (invalid) {dist.invalid:.2f}"
+        if dist.presupposition_failure > 0.005:
+            top += f" (presupposition fails: {dist.presupposition_failure:.2f})"
         table.add_row(*map(literal, (q["question"], f"{program_to_text(parse.best.program)}  "
                                      f"[{parse.best.probability:.2f}]", top, q["answer"])))
         report.append({"file": name, "question": q["question"], "truth": q["answer"],

@@ -22,6 +22,7 @@ _LAZY = {
     "SceneReasoner": "po3d_ppl.reasoning.inference",
     "METHODS": "po3d_ppl.reasoning.inference",
     "AnswerDistribution": "po3d_ppl.reasoning.answer",
+    "PresuppositionWarning": "po3d_ppl.reasoning.answer",
     "Budget": "po3d_ppl.reasoning.budget",
     "BudgetExceeded": "po3d_ppl.reasoning.budget",
 }

@@ -1,10 +1,17 @@
-"""``AnswerDistribution``: what every inference method returns, and what calibration studies consume."""
+"""``AnswerDistribution``: what every inference method returns, and what calibration studies consume.
+
+A question presupposes its referents ("the red bus" says there is exactly one) and the values it asks for. Every
+method returns the *joint*: answers and an explicit invalid outcome, the mass of executions whose presuppositions
+fail. :meth:`AnswerDistribution.given_presuppositions` turns it into P(answer | the presuppositions hold), with
+P(presupposition fails) kept beside it; that is what the question pipeline returns by default.
+"""
 
 from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field
+import warnings
+from dataclasses import dataclass, field, replace
 
 from po3d_ppl import ontology
 
@@ -28,6 +35,9 @@ class AnswerDistribution:
     stderr: dict = field(default_factory=dict)
     #: what the method reports about its own cost (samples drawn, tensor sizes...)
     info: dict = field(default_factory=dict)
+    #: For a distribution given the presuppositions: the probability that they fail (the joint's invalid mass);
+    #: None for the joint itself.
+    presupposition_failure: float | None = None
 
     @property
     def top(self):
@@ -76,6 +86,26 @@ class AnswerDistribution:
             info={"alternatives": [{"weight": w / total, **d.info} for w, d in weighted]},
         )
 
+    def given_presuppositions(self, warn_above: float | None = 0.5) -> AnswerDistribution:
+        """P(answer | the program's presuppositions hold), with ``presupposition_failure`` = P(they fail).
+
+        Warns (:class:`PresuppositionWarning`) when the failure probability exceeds ``warn_above``. When it is 1
+        there is nothing to condition on: the answers stay empty.
+        """
+        if self.presupposition_failure is not None:
+            return self
+        failure = self.invalid
+        holds = 1.0 - failure
+        if warn_above is not None and failure > warn_above:
+            warnings.warn(f"the question's presuppositions (its referents, the values it asks about) fail with "
+                          f"probability {failure:.2f}; the answers are conditioned on the remaining "
+                          f"{holds:.2f}", PresuppositionWarning, stacklevel=2)
+        if holds <= 0.0:
+            return replace(self, probs={}, invalid=0.0, stderr={}, presupposition_failure=1.0)
+        return replace(self, probs={a: p / holds for a, p in self.probs.items()}, invalid=0.0,
+                       error=min(self.error / holds, 1.0), stderr={a: e / holds for a, e in self.stderr.items()},
+                       presupposition_failure=failure)
+
     def to_dict(self) -> dict:
         return {
             "method": self.method,
@@ -87,6 +117,7 @@ class AnswerDistribution:
             "error": self.error,
             "stderr": [[a, s] for a, s in self.stderr.items()],
             "info": self.info,
+            "presupposition_failure": self.presupposition_failure,
         }
 
     def to_json(self) -> str:
@@ -99,5 +130,12 @@ class AnswerDistribution:
             lines.append(f"  {self.words(answer):<24} {p:.4f}{err}")
         if len(self.probs) > 8:
             lines.append(f"  ... {len(self.probs) - 8} more")
-        lines.append(f"  {'(invalid)':<24} {self.invalid:.4f}")
+        if self.presupposition_failure is None:
+            lines.append(f"  {'(invalid)':<24} {self.invalid:.4f}")
+        else:
+            lines.append(f"  given the presuppositions; they fail with probability {self.presupposition_failure:.4f}")
         return "\n".join(lines)
+
+
+class PresuppositionWarning(UserWarning):
+    """A question's presuppositions probably fail: its answer distribution rests on little mass."""
