@@ -29,6 +29,7 @@ ALLOWED = {
     "perception": BASE | {"world", "evidence", "model_store"},
     "reasoning": BASE | {"catalogue", "world", "evidence", "language"},
     "pipeline": BASE | {"language", "reasoning"},
+    "evaluation": None,  # benchmarks every stage against the others
     "cli": None,  # the command line may use every stage
     "__main__": None,
     "__init__": set(),
