@@ -1,0 +1,76 @@
+"""Evidence back-ends as the evaluation sees them: one observation in, ``SceneEvidence`` out, plus an identity.
+
+The identity (name, settings, later the model's sha256) is half of the evidence cache key, so changing the noise,
+the seed or the model never reads stale evidence. The render-and-compare parser plugs in as another
+:class:`EvidenceBackend` (it reads ``observation.image_path``; the simulated sensor reads ``observation.scene``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from po3d_ppl.errors import InputError
+from po3d_ppl.evidence import SceneEvidence
+from po3d_ppl.perception import SimulatedSensor
+from po3d_ppl.world.scene import Scene
+
+
+@dataclass(frozen=True)
+class Observation:
+    """One image of a dataset split: its index, file and ground-truth scene (the last for the simulated sensor
+    and for scoring only; a real back-end must not read it)."""
+
+    index: int
+    image_path: Path
+    scene: Scene
+
+
+@runtime_checkable
+class EvidenceBackend(Protocol):
+    """What the evaluation needs of a perception back-end."""
+
+    name: str
+
+    def identity(self) -> dict[str, Any]:
+        """Everything that determines the evidence besides the image (JSON-serialisable)."""
+        ...
+
+    def evidence(self, observation: Observation) -> SceneEvidence:
+        ...
+
+
+def image_seed(seed: int, index: int) -> int:
+    """The sensor seed of image ``index``: independent noise per image, reproducible from (seed, index)."""
+    return int(np.random.SeedSequence([int(seed), int(index)]).generate_state(1)[0])
+
+
+@dataclass(frozen=True)
+class SimulatedBackend:
+    """The simulated sensor (:class:`po3d_ppl.perception.SimulatedSensor`) on each image's ground-truth scene, with
+    a per-image seed derived from ``seed`` (so two images never share a noise draw)."""
+
+    noise: float = 0.05
+    seed: int = 0
+    pose_bins: int | None = None
+    name: str = "simulated"
+
+    def __post_init__(self) -> None:
+        self._sensor(0)  # validates noise and seed with the sensor's own typed errors
+
+    def _sensor(self, index: int) -> SimulatedSensor:
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise InputError("--seed", f"must be a non-negative integer, got {self.seed!r}")
+        extra = {} if self.pose_bins is None else {"pose_bins": self.pose_bins}
+        return SimulatedSensor(noise=self.noise, seed=image_seed(self.seed, index), **extra)
+
+    def identity(self) -> dict[str, Any]:
+        sensor = self._sensor(0)
+        return {"name": self.name, "noise": float(self.noise), "seed": int(self.seed),
+                "pose_bins": int(sensor.pose_bins), "seed_rule": "SeedSequence([seed, image_index])"}
+
+    def evidence(self, observation: Observation) -> SceneEvidence:
+        return self._sensor(observation.index).evidence(observation.scene)
