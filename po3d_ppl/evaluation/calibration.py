@@ -3,10 +3,11 @@
 Library: ``torchmetrics`` (``binary_calibration_error``, norms ``l1`` and ``max``). It is maintained, already
 torch-based like the rest of the package (no second array stack, and its wheel pulls no CUDA build when torch is
 installed), and its binned ECE is the standard definition (uniform bins on [0, 1], weighted by count). Its one
-known flaw, issue #3510: ``torch.bucketize(..., right=True)`` puts a confidence of exactly 1.0 into a 16th bin
-whose accuracy is then dropped, so a certain, correct answer counts as miscalibrated (3 answers at 1.0 all right:
-ECE 0.067 instead of 0). Certain answers are common here (the oracle, the thresholded baseline, certain
-evidence), so confidences are clamped to ``1 - 1e-6`` first. ``netcal`` pulls in its own plotting stack and
+known flaw, issue #3510: ``torch.bucketize(..., right=True)`` puts a confidence of exactly 1.0 into a 16th bin of
+its own instead of the last of the 15, so the binning depends on whether an answer is certain (0.99 right, 0.999
+right and 1.0 wrong: 0.337 instead of the standard 0.330, and the reliability diagram would need a 16th bar).
+Certain answers are common here (the oracle, the thresholded baseline, certain evidence), so confidences are
+clamped to ``1 - 1e-6`` first, which puts them in the last bin, as the standard definition does. ``netcal`` pulls in its own plotting stack and
 ``relplot`` estimates smooth ECE (not the paper-style binned numbers); we keep one dependency.
 
 Two views, for every method:
