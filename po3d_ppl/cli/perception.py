@@ -39,11 +39,11 @@ def _metrics_table(console, rows: dict[str, dict], title: str) -> None:
     keys = ("within_exact", "within_radius", "within_radius_2x", "across_exact", "across_radius",
             "across_radius_2x", "category_top1", "fg_bg_auc", "fg_bg_auc_vs_clutter")
     table = Table(title=literal(title))
-    table.add_column("model")
+    table.add_column("measure")
+    for name in rows:
+        table.add_column(literal(name), justify="right")
     for k in keys:
-        table.add_column(k, justify="right")
-    for name, row in rows.items():
-        table.add_row(literal(name), *(f"{row[k]:.3f}" for k in keys))
+        table.add_row(k, *(f"{row[k]:.3f}" for row in rows.values()))
     console.print(table)
 
 
@@ -155,7 +155,7 @@ def eval_perception_command(
     if baseline_data is not None:
         fit, _ = _read_images(console, [baseline_data], ["train"], 100, "baseline fit")
         config = TrainConfig(seed=seed, feature=model.extractor.config)
-        rows["untrained (fitted textures)"] = evaluate_features(untrained_baseline(fit, config), held)
+        rows["untrained_fitted_textures"] = evaluate_features(untrained_baseline(fit, config), held)
     _metrics_table(console, rows, f"features on {data} ({len(held)} images)")
     if record:
         from po3d_ppl.model_store import models_dir, record_metrics
