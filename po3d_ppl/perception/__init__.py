@@ -7,7 +7,10 @@ one, the simulated sensor (:mod:`po3d_ppl.perception.simulated`); the render-and
 
 Foundations of the render-and-compare parser, in place: image input with the world's camera prior
 (:mod:`~po3d_ppl.perception.image_input`), category-level meshes that enclose each category's subtypes
-(:mod:`~po3d_ppl.perception.category_meshes`) and a torch rasteriser (:mod:`~po3d_ppl.perception.rasterizer`).
+(:mod:`~po3d_ppl.perception.category_meshes`), a torch rasteriser (:mod:`~po3d_ppl.perception.rasterizer`), and
+the stride-8 feature extractor with the neural textures and clutter bank trained by the contrastive objective
+(:mod:`~po3d_ppl.perception.features`, :mod:`~po3d_ppl.perception.neural_mesh`,
+:mod:`~po3d_ppl.perception.train_features`; shipped in ``models/perception_features.safetensors``).
 They are imported lazily (the simulated sensor needs none of them).
 """
 
@@ -39,6 +42,9 @@ _LAZY = {
     "rasterize": "rasterizer", "rasterize_camera": "rasterizer", "Fragments": "rasterizer",
     "CameraTensors": "rasterizer", "camera_tensors": "rasterizer", "project_vertices": "rasterizer",
     "pad_meshes": "rasterizer", "scaled_intrinsics": "rasterizer",
+    "FeatureExtractor": "features", "FeatureConfig": "features", "extract_features": "features",
+    "NeuralMeshes": "neural_mesh", "FeatureModel": "neural_mesh", "load_feature_model": "neural_mesh",
+    "save_feature_model": "neural_mesh",
 }
 
 __all__ = ["EvidenceSource", "SceneEvidence", "SimulatedSensor", "simulated_evidence", *_LAZY]
