@@ -1,0 +1,557 @@
+"""Multi-object render-and-compare parsing (paper §4.2, issue 11 items 5-6, a first version): pixels in,
+:class:`ObjectProposals` out.
+
+**Stages.**
+
+1. *Features*: the shipped stride-8 extractor gives unit features ``f`` per cell.
+2. *Coarse search per category* (:func:`coarse_scores`): every hypothesis (category, size, azimuth bin, ground
+   position) is scored by the render-and-compare log-likelihood ratio against the clutter model,
+   ``sum_v w_v kappa (f_cell(v) . m_v - clutter(f_cell(v)))`` over the mesh's visible vertices ``v``, where
+   ``clutter(f) = log mean_k exp(kappa f . c_k)`` (the bank as a vMF mixture) and ``w_v`` = 1 / (visible vertices
+   sharing v's cell), so a hypothesis is scored per covered cell, as a rendered mask would be. Vertex projections
+   are not rendered per hypothesis: per (category, size, azimuth) they are computed once with the rasteriser's
+   z-buffer visibility at a few *reference depths* on the camera's central ray, as pixel offsets from the
+   projected base centre, and scaled by ``reference depth / depth`` at each grid position. Azimuth bins are in the
+   contract's frame (``pose_degree``: clockwise from the viewing ray), which is what a view depends on, so one
+   template serves every column of the image. Positions are the stride-8 cells (every ``position_step``-th)
+   back-projected onto z = 0 with the camera prior's base camera.
+3. *Peaks*: greedy non-maximum suppression on the ground plane over the best hypothesis per position.
+4. *3D-NMS across categories* (:func:`_accept_in_depth_order`): each peak's best hypothesis is rasterised at
+   stride 8 (one batched call); in depth order a proposal explains the cells its mesh covers that no nearer
+   accepted proposal explains; it is rejected when those new cells are under ``min_new_fraction`` of its footprint
+   or their render-and-compare score (interpolated vertex features against the clutter model) is under
+   ``existence_threshold``. So an occluded object is scored only on its visible cells, and one object is not
+   proposed twice.
+5. *Record*: per accepted proposal the tables are log-sum-exps of coarse scores over the other pose parameters
+   (sizes, and positions within ``table_radius`` of the peak), never argmaxes; masks, boxes and the ownership map
+   come from one stride-2 z-buffer of the accepted meshes.
+
+**Not done yet** (said so in the record's ``notes``): gradient refinement of the pose (the coarse pose is kept),
+camera-jitter estimation (the base camera is used: positions inherit the jitter's offset), elevated aeroplanes
+(everything stands on z = 0), and calibration temperatures (tables are raw scores).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+from po3d_ppl import ontology
+from po3d_ppl.errors import InputError
+from po3d_ppl.perception.features import STRIDE, extract_features
+from po3d_ppl.perception.image_input import CameraPrior, ImageInput, backproject_to_plane, load_image, project_points
+from po3d_ppl.perception.neural_mesh import FeatureModel, NeuralMeshes, load_feature_model
+from po3d_ppl.world.scene import Camera
+
+CATEGORIES = tuple(ontology.CATEGORIES)
+SIZES = ("large", "small")
+
+
+@dataclass(frozen=True)
+class ParserConfig:
+    """Search and acceptance settings of :func:`parse_objects`."""
+
+    azimuth_bins: int = 24
+    #: vMF concentration of the feature likelihood (the training temperature was 0.07, i.e. ~14).
+    kappa: float = 10.0
+    #: Every ``position_step``-th feature cell (rows and columns) is a candidate ground position.
+    position_step: int = 2
+    #: View depths of the reference placements whose vertex projections are scaled to every position.
+    reference_depths: tuple[float, ...] = (7.0, 9.5, 12.5, 16.0)
+    #: Visible vertices kept per template (evenly spaced; weights rescaled to the full set's total).
+    template_vertices: int = 192
+    #: Ground positions are searched in [-extent, extent]^2 (the world draws objects in [-3, 3]^2).
+    ground_extent: float = 3.6
+    #: Peaks closer than this on the ground (world units) to a better one are suppressed.
+    nms_radius: float = 0.6
+    max_peaks: int = 24
+    #: A proposal must explain at least this fraction of its footprint's cells that no nearer one explains.
+    min_new_fraction: float = 0.35
+    #: Minimum render-and-compare score (log-likelihood ratio against clutter) of the newly explained cells.
+    existence_threshold: float = 20.0
+    #: Positions within this ground distance of a peak enter its tables' log-sum-exp.
+    table_radius: float = 0.3
+    #: Footprints (category mesh's ground rectangle, scaled) shrunk by this factor must not intersect: objects do
+    #: not interpenetrate, so overlapping hypotheses are one object.
+    footprint_shrink: float = 0.7
+    #: Stride of the final z-buffer giving masks, boxes and the ownership map.
+    mask_stride: int = 2
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.azimuth_bins, int) and self.azimuth_bins >= 12):
+            raise InputError("ParserConfig.azimuth_bins", f"must be an integer >= 12, got {self.azimuth_bins!r}")
+        if not (self.kappa > 0 and self.position_step >= 1 and self.template_vertices >= 8):
+            raise InputError("ParserConfig", "kappa > 0, position_step >= 1 and template_vertices >= 8 are needed")
+        if not self.reference_depths or min(self.reference_depths) <= 0:
+            raise InputError("ParserConfig.reference_depths", "needs at least one positive depth")
+
+    @property
+    def azimuths(self) -> np.ndarray:
+        """Bin centres in degrees (``pose_degree`` frame)."""
+        return np.arange(self.azimuth_bins) * (360.0 / self.azimuth_bins)
+
+
+@dataclass(eq=False)
+class ObjectProposals:
+    """What the object parser read from one image (N accepted proposals; tables float64 on CPU).
+
+    ``existence_logodds`` [N]: score of the newly explained cells minus the acceptance threshold.
+    ``category_loglik`` [N, 5] (``ontology.CATEGORIES`` order); ``pose_loglik`` [N, 5, K] over ``pose_support``
+    [N, K] (degrees, ``pose_degree`` frame: clockwise from the viewing ray, 0 = back visible), per category;
+    ``size_loglik`` [N, 2] (large, small). ``positions`` [N, 3] world (z = 0), ``depths`` [N] view depth of the
+    base centre; ``rotations`` [N] world yaw of the best hypothesis (degrees). ``boxes`` [N, 4] (x, y, w, h pixels);
+    ``masks`` [N, H, W] bool visible masks; ``ownership`` [H, W] int64 (proposal index, -1 background).
+    ``timings`` seconds per stage; ``notes`` what this version does not estimate.
+    """
+
+    existence_logodds: torch.Tensor
+    category_loglik: torch.Tensor
+    pose_support: torch.Tensor
+    pose_loglik: torch.Tensor
+    size_loglik: torch.Tensor
+    positions: torch.Tensor
+    depths: torch.Tensor
+    rotations: torch.Tensor
+    boxes: torch.Tensor
+    masks: torch.Tensor
+    ownership: torch.Tensor
+    camera: Camera
+    timings: dict[str, float] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+
+    def __len__(self) -> int:
+        return int(self.existence_logodds.shape[0])
+
+    @property
+    def categories(self) -> list[str]:
+        """Most likely category per proposal (for display; the tables are the output)."""
+        return [CATEGORIES[i] for i in self.category_loglik.argmax(-1).tolist()]
+
+
+NOTES = ("pose not refined by gradient descent (coarse grid pose)", "camera jitter not estimated (base camera)",
+         "objects assumed on the ground plane", "tables are uncalibrated scores (no temperature fitted)")
+
+
+# --- templates: vertex projections at reference depths ---------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class Templates:
+    """Per (category, size, reference, azimuth): up to N visible vertices, as pixel offsets from the projected base
+    centre at the reference depth, their texture row and cell weight (0 = padding). Shapes [5, 2, R, A, N(, 2)]."""
+
+    offsets: torch.Tensor
+    vertex: torch.Tensor
+    weight: torch.Tensor
+    depths: torch.Tensor
+
+
+def _reference_points(camera: Camera, depths: tuple[float, ...]) -> np.ndarray:
+    """Ground points on the vertical plane of the optical axis at the given view depths [R, 3]."""
+    forward = -camera.matrix_world[:3, 2]
+    loc = camera.location
+    g = forward[:2] / np.linalg.norm(forward[:2])
+    along = float(g @ forward[:2])
+    t = (np.asarray(depths) + loc[2] * forward[2]) / along
+    pts = np.zeros((len(depths), 3))
+    pts[:, :2] = loc[:2] + t[:, None] * g
+    return pts
+
+
+def _view_azimuth(camera: Camera, xy: np.ndarray) -> np.ndarray:
+    ray = np.asarray(xy)[..., :2] - camera.location[:2]
+    return np.degrees(np.arctan2(ray[..., 1], ray[..., 0]))
+
+
+def build_templates(camera: Camera, config: ParserConfig) -> Templates:
+    """Visible vertices of every category mesh at every (size, reference depth, azimuth), via the z-buffer."""
+    from po3d_ppl.perception.category_meshes import category_mesh, pose_vertices_torch
+    from po3d_ppl.perception.rasterizer import rasterize_camera
+
+    refs = _reference_points(camera, config.reference_depths)
+    az = torch.tensor(config.azimuths, dtype=torch.float64)
+    n = config.template_vertices
+    shape = (len(CATEGORIES), len(SIZES), len(refs), len(az), n)
+    offsets, vertex, weight = torch.zeros(*shape, 2), torch.zeros(shape, dtype=torch.long), torch.zeros(shape)
+    for c, cat in enumerate(CATEGORIES):
+        mesh = category_mesh(cat)
+        verts = torch.tensor(np.array(mesh.vertices), dtype=torch.float64)
+        faces = torch.tensor(np.array(mesh.faces))
+        for s, size in enumerate(SIZES):
+            scale = float(ontology.SIZE_SCALE[size])
+            for r, ref in enumerate(refs):
+                rotation = _view_azimuth(camera, ref) - az  # pose_degree = view azimuth - yaw
+                posed = pose_vertices_torch(verts, torch.full_like(az, ref[0]), torch.full_like(az, ref[1]),
+                                            rotation, scale)
+                vis, xy = _visible_vertices(posed, faces, camera, 1.5 * mesh.spacing * scale, rasterize_camera)
+                centre = project_points(camera, ref)[:2]
+                for a in range(len(az)):
+                    o, v, w = _subsample(xy[a], vis[a], n)
+                    k = len(v)
+                    offsets[c, s, r, a, :k] = torch.as_tensor(o - centre, dtype=torch.float32)
+                    vertex[c, s, r, a, :k] = torch.as_tensor(v)
+                    weight[c, s, r, a, :k] = torch.as_tensor(w, dtype=torch.float32)
+    depths = torch.tensor([project_points(camera, p)[2] for p in refs], dtype=torch.float32)
+    return Templates(offsets, vertex, weight, depths)
+
+
+def _visible_vertices(posed: torch.Tensor, faces: torch.Tensor, camera: Camera, tol: float, rasterize_camera
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """[B, V] visibility (own z-buffer at stride 2, as in training) and [B, V, 2] pixel coordinates."""
+    stride = 2
+    frags = rasterize_camera(posed.float(), faces, camera, stride=stride, cull_backfaces=True)
+    depth_map = frags.depth_map.detach().numpy()
+    p = project_points(camera, posed.numpy())
+    xy, depth = p[..., :2], p[..., 2]
+    b, h, w = depth_map.shape
+    col = np.floor(xy[..., 0] / stride).astype(np.int64)
+    row = np.floor(xy[..., 1] / stride).astype(np.int64)
+    inside = (col >= 0) & (col < w) & (row >= 0) & (row < h) & (depth > 0)
+    bi = np.arange(b)[:, None]
+    seen = depth_map[bi, row.clip(0, h - 1), col.clip(0, w - 1)]
+    return inside & (depth <= seen + tol), xy
+
+
+def _subsample(xy: np.ndarray, visible: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Up to ``n`` evenly spaced visible vertices with weights 1 / (visible vertices in their stride-8 cell),
+    rescaled so the kept weights sum to the number of covered cells."""
+    ids = np.flatnonzero(visible)
+    if ids.size == 0:
+        return np.zeros((0, 2)), np.zeros(0, dtype=np.int64), np.zeros(0)
+    cells = np.floor(xy[ids] / STRIDE).astype(np.int64)
+    _, inverse, counts = np.unique(cells, axis=0, return_inverse=True, return_counts=True)
+    w = 1.0 / counts[inverse.reshape(-1)]
+    keep = np.unique(np.linspace(0, ids.size - 1, min(n, ids.size)).round().astype(np.int64))
+    kept_w = w[keep] * (w.sum() / w[keep].sum())
+    return xy[ids[keep]], ids[keep], kept_w
+
+
+@lru_cache(maxsize=4)
+def _cached_templates(camera_key: tuple, config: ParserConfig) -> Templates:
+    width, height, intrinsics = camera_key
+    prior = CameraPrior(width, height, intrinsics=intrinsics)
+    return build_templates(prior.base, config)
+
+
+# --- coarse search ---------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class Grid:
+    """Candidate ground positions: ``ground`` [P, 3], ``pixel`` [P, 2] (projected base centre), ``depth`` [P],
+    ``ref`` [P] nearest reference depth, ``scale`` [P] = reference depth / depth."""
+
+    ground: torch.Tensor
+    pixel: torch.Tensor
+    depth: torch.Tensor
+    ref: torch.Tensor
+    scale: torch.Tensor
+
+
+def position_grid(camera: Camera, feature_size: tuple[int, int], templates: Templates, config: ParserConfig) -> Grid:
+    """Every ``position_step``-th cell centre back-projected onto the ground, kept inside the search extent."""
+    h, w = feature_size
+    rows, cols = torch.meshgrid(torch.arange(0, h, config.position_step), torch.arange(0, w, config.position_step),
+                                indexing="ij")
+    pix = torch.stack([cols.reshape(-1), rows.reshape(-1)], -1).double() * STRIDE + STRIDE / 2
+    ground = backproject_to_plane(camera, pix)
+    ok = torch.isfinite(ground).all(-1) & (ground[:, :2].abs() <= config.ground_extent).all(-1)
+    ground, pix = ground[ok], pix[ok]
+    depth = project_points(camera, ground)[:, 2].float()
+    logd = torch.log(templates.depths)[None, :] - torch.log(depth)[:, None]
+    ref = logd.abs().argmin(-1)
+    return Grid(ground.float(), pix.float(), depth, ref, templates.depths[ref] / depth)
+
+
+def cell_evidence(features: torch.Tensor, meshes: NeuralMeshes, kappa: float) -> tuple[list[torch.Tensor], torch.Tensor]:
+    """Per category [h*w + 1, V]: kappa f . m_v minus the clutter log-likelihood of the cell (the extra last row is
+    0: vertices off the image carry no evidence); and the clutter log-likelihood [h*w]."""
+    d = features.shape[0]
+    flat = features.reshape(d, -1).T.float()
+    clutter = torch.logsumexp(kappa * flat @ meshes.clutter.T, -1) - math.log(meshes.clutter.shape[0])
+    out = []
+    for c in CATEGORIES:
+        e = kappa * flat @ meshes.textures[c].T - clutter[:, None]
+        out.append(torch.cat([e, torch.zeros(1, e.shape[1])]))
+    return out, clutter
+
+
+def coarse_scores(evidence: list[torch.Tensor], feature_size: tuple[int, int], grid: Grid, templates: Templates
+                  ) -> torch.Tensor:
+    """[P, 5, 2, A] render-and-compare log-likelihood ratios of every hypothesis against clutter."""
+    h, w = feature_size
+    ref = grid.ref
+    scale = grid.scale[:, None, None, None]
+    out = []
+    for c, e in enumerate(evidence):
+        off = templates.offsets[c][:, ref].permute(1, 0, 2, 3, 4)  # [P, 2, A, N, 2]
+        vid = templates.vertex[c][:, ref].permute(1, 0, 2, 3)
+        wt = templates.weight[c][:, ref].permute(1, 0, 2, 3) * scale**2
+        px = grid.pixel[:, None, None, None, :] + off * scale[..., None]
+        col = torch.floor(px[..., 0] / STRIDE).long()
+        row = torch.floor(px[..., 1] / STRIDE).long()
+        inside = (col >= 0) & (col < w) & (row >= 0) & (row < h)
+        cell = torch.where(inside, row * w + col, h * w)
+        vals = e.reshape(-1)[cell * e.shape[1] + vid]
+        out.append((vals * wt).sum(-1))
+    return torch.stack(out, 1)
+
+
+def find_peaks(scores: torch.Tensor, grid: Grid, config: ParserConfig) -> list[int]:
+    """Positions whose best hypothesis beats clutter, greedily suppressed within ``nms_radius`` on the ground."""
+    best = scores.flatten(1).max(-1).values
+    order = torch.argsort(best, descending=True, stable=True)
+    order = order[best[order] > 0]
+    xy = grid.ground[:, :2]
+    taken: list[int] = []
+    for p in order.tolist():
+        if taken and (torch.linalg.norm(xy[taken] - xy[p], dim=-1) < config.nms_radius).any():
+            continue
+        taken.append(p)
+        if len(taken) >= config.max_peaks:
+            break
+    return taken
+
+
+# --- 3D-NMS: acceptance in depth order ------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Hypothesis:
+    """One posed category mesh: ``position`` index in the grid, ground ``x``, ``y``, world ``rotation`` (deg)."""
+
+    position: int
+    category: int
+    size: int
+    azimuth: int
+    x: float
+    y: float
+    rotation: float
+    depth: float
+    score: float
+
+
+def _best_hypotheses(scores: torch.Tensor, peaks: list[int], grid: Grid, camera: Camera, config: ParserConfig
+                     ) -> list[Hypothesis]:
+    out = []
+    for p in peaks:
+        flat = int(scores[p].flatten().argmax())
+        c, s, a = np.unravel_index(flat, scores.shape[1:])
+        x, y = (float(v) for v in grid.ground[p, :2])
+        rotation = float(_view_azimuth(camera, np.array([x, y])) - config.azimuths[a]) % 360.0
+        out.append(Hypothesis(p, int(c), int(s), int(a), x, y, rotation, float(grid.depth[p]),
+                              float(scores[p].flatten()[flat])))
+    return out
+
+
+def _posed_meshes(hyps: list[Hypothesis]) -> tuple[torch.Tensor, torch.Tensor, list[int]]:
+    """Padded [B, Vmax, 3] world vertices, [B, Fmax, 3] faces (-1 padding) and each item's vertex count."""
+    from po3d_ppl.perception.category_meshes import category_mesh, pose_vertices_torch
+    from po3d_ppl.perception.rasterizer import pad_meshes
+
+    items, counts = [], []
+    for h in hyps:
+        mesh = category_mesh(CATEGORIES[h.category])
+        v = pose_vertices_torch(torch.tensor(np.array(mesh.vertices)), h.x, h.y, h.rotation,
+                                float(ontology.SIZE_SCALE[SIZES[h.size]]))
+        items.append((v.float(), torch.tensor(np.array(mesh.faces))))
+        counts.append(int(v.shape[0]))
+    verts, faces = pad_meshes(items)
+    return verts, faces, counts
+
+
+def _accept_in_depth_order(hyps: list[Hypothesis], features: torch.Tensor, clutter: torch.Tensor,
+                           meshes: NeuralMeshes, camera: Camera, config: ParserConfig
+                           ) -> tuple[list[Hypothesis], list[float]]:
+    """Greedy 3D-NMS on a z-buffer of the accepted meshes.
+
+    Candidates are taken best coarse score first; each cell is owned by the nearest accepted mesh covering it (depth
+    order), so a candidate is scored only on the cells where it would be in front. It is accepted when the
+    log-likelihood of the image rises by ``existence_threshold`` or more (its cell scores minus those of the cells'
+    current owners) and it is in front on at least ``min_new_fraction`` of its footprint. Plain depth order
+    (nearest first, measured) accepted small hypotheses in front of large near objects; scoring the gain against
+    the current owner rejects them. A last pass drops accepted proposals that nearer later ones hid.
+    """
+    from po3d_ppl.perception.rasterizer import rasterize_camera
+
+    if not hyps:
+        return [], []
+    verts, faces, counts = _posed_meshes(hyps)
+    frags = rasterize_camera(verts, faces, camera, stride=STRIDE, cull_backfaces=True)
+    tex = torch.zeros(len(hyps), verts.shape[1], meshes.dim)
+    for i, h in enumerate(hyps):
+        tex[i, : counts[i]] = meshes.textures[CATEGORIES[h.category]]
+    with torch.no_grad():
+        rendered = F.normalize(frags.interpolate(tex), dim=-1)  # [B, h, w, D]
+        hh, ww = frags.height, frags.width
+        f = features[:, :hh, :ww].permute(1, 2, 0)
+        fg = config.kappa * (rendered * f[None]).sum(-1) - clutter.view(hh, ww)[None]
+        mask = frags.mask
+        depth = frags.depth_map.detach()
+    footprint = mask.flatten(1).sum(-1).float()
+    owner_depth = torch.full((hh, ww), float("inf"))
+    owner_fg = torch.zeros(hh, ww)
+    accepted: list[int] = []
+    for i in sorted(range(len(hyps)), key=lambda i: -hyps[i].score):
+        if any(footprints_overlap(hyps[i], hyps[j], config.footprint_shrink) for j in accepted):
+            continue
+        front = mask[i] & (depth[i] < owner_depth)
+        if footprint[i] == 0 or float(front.sum()) < config.min_new_fraction * float(footprint[i]):
+            continue
+        gain = float((fg[i] - owner_fg)[front].sum())
+        if gain < config.existence_threshold:
+            continue
+        accepted.append(i)
+        owner_depth = torch.where(front, depth[i], owner_depth)
+        owner_fg = torch.where(front, fg[i], owner_fg)
+    return _final_check(accepted, hyps, mask, depth, fg, footprint, config)
+
+
+def _footprint(h: Hypothesis, shrink: float) -> np.ndarray:
+    """[4, 2] ground corners of the hypothesis' mesh footprint (scaled, shrunk about its centre)."""
+    from po3d_ppl.perception.category_meshes import category_mesh
+
+    b = category_mesh(CATEGORIES[h.category]).bounds
+    half = 0.5 * (b[1, :2] - b[0, :2]) * float(ontology.SIZE_SCALE[SIZES[h.size]]) * shrink
+    corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * half
+    th = math.radians(h.rotation)
+    rot = np.array([[math.cos(th), -math.sin(th)], [math.sin(th), math.cos(th)]])
+    return corners @ rot.T + np.array([h.x, h.y])
+
+
+def footprints_overlap(a: Hypothesis, b: Hypothesis, shrink: float) -> bool:
+    """Separating-axis test of the two (shrunk) footprint rectangles."""
+    pa, pb = _footprint(a, shrink), _footprint(b, shrink)
+    for poly in (pa, pb):
+        for k in range(4):
+            edge = poly[(k + 1) % 4] - poly[k]
+            axis = np.array([-edge[1], edge[0]])
+            ra, rb = pa @ axis, pb @ axis
+            if ra.max() < rb.min() or rb.max() < ra.min():
+                return False
+    return True
+
+
+def _final_check(accepted: list[int], hyps: list[Hypothesis], mask: torch.Tensor, depth: torch.Tensor,
+                 fg: torch.Tensor, footprint: torch.Tensor, config: ParserConfig
+                 ) -> tuple[list[Hypothesis], list[float]]:
+    """Keep accepted proposals still in front on enough of their footprint with enough score there."""
+    if not accepted:
+        return [], []
+    d = torch.where(mask[accepted], depth[accepted], torch.full_like(depth[accepted], float("inf")))
+    front = (d == d.min(0, keepdim=True).values) & mask[accepted]
+    out, scores = [], []
+    for n, i in enumerate(accepted):
+        score = float(fg[i][front[n]].sum())
+        if float(front[n].sum()) >= config.min_new_fraction * float(footprint[i]) and \
+                score >= config.existence_threshold:
+            out.append(hyps[i])
+            scores.append(score)
+    return out, scores
+
+
+# --- the record ----------------------------------------------------------------------------------------------------
+
+
+def _tables(scores: torch.Tensor, grid: Grid, hyp: Hypothesis, config: ParserConfig
+            ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """(category [5], pose [5, A], size [2]) log-sum-exps over positions near the peak and the other parameters."""
+    d = torch.linalg.norm(grid.ground[:, :2] - grid.ground[hyp.position, :2], dim=-1)
+    near = scores[d <= config.table_radius].double()  # [p, 5, 2, A]
+    pose = torch.logsumexp(torch.logsumexp(near, 0), 1)  # [5, A]
+    category = torch.logsumexp(pose, -1)
+    size = torch.logsumexp(torch.logsumexp(torch.logsumexp(near, 0), -1), 0)
+    return category, pose, size
+
+
+def _ownership(hyps: list[Hypothesis], camera: Camera, config: ParserConfig, size: tuple[int, int]) -> torch.Tensor:
+    """[H, W] index of the accepted proposal whose mesh is nearest at each pixel (-1: none), from one z-buffer."""
+    from po3d_ppl.perception.rasterizer import rasterize_camera
+
+    width, height = size
+    if not hyps:
+        return torch.full((height, width), -1, dtype=torch.long)
+    verts, faces, counts = _posed_meshes(hyps)
+    nfaces = [int((faces[i, :, 0] >= 0).sum()) for i in range(len(hyps))]
+    offsets = np.cumsum([0, *counts[:-1]])
+    all_v = torch.cat([verts[i, : counts[i]] for i in range(len(hyps))])[None]
+    all_f = torch.cat([faces[i, : nfaces[i]] + int(offsets[i]) for i in range(len(hyps))])
+    owner = torch.cat([torch.full((nfaces[i],), i) for i in range(len(hyps))])
+    frags = rasterize_camera(all_v, all_f, camera, stride=config.mask_stride, cull_backfaces=True)
+    fmap = frags.face_map[0]
+    small = torch.where(fmap >= 0, owner[fmap.clamp_min(0)], -1)
+    full = small.repeat_interleave(config.mask_stride, 0).repeat_interleave(config.mask_stride, 1)
+    return full[:height, :width]
+
+
+def _boxes(masks: torch.Tensor) -> torch.Tensor:
+    out = torch.zeros(masks.shape[0], 4, dtype=torch.float64)
+    for i, m in enumerate(masks):
+        ys, xs = torch.nonzero(m, as_tuple=True)
+        if len(xs):
+            x0, y0 = int(xs.min()), int(ys.min())
+            out[i] = torch.tensor([x0, y0, int(xs.max()) - x0 + 1, int(ys.max()) - y0 + 1], dtype=torch.float64)
+    return out
+
+
+def parse_objects(image, model: FeatureModel | None = None, config: ParserConfig | None = None
+                  ) -> ObjectProposals:
+    """Detect, classify and pose every object of ``image`` (anything :func:`load_image` reads) by coarse
+    render-and-compare search and depth-ordered 3D-NMS. Reads pixels only (the camera is the prior's base)."""
+    config = config or ParserConfig()
+    model = model or _default_model()
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    img = load_image(image)
+    prior = CameraPrior.for_image(img)
+    camera = prior.base
+    meshes = model.meshes.normalised().to("cpu")
+    features = extract_features(model.extractor, img.pixels).cpu()
+    t1 = time.perf_counter()
+    timings["features"] = t1 - t0
+    templates = _cached_templates((img.size[0], img.size[1], img.intrinsics), config)
+    size_hw = (int(features.shape[1]), int(features.shape[2]))
+    grid = position_grid(camera, size_hw, templates, config)
+    evidence, clutter = cell_evidence(features, meshes, config.kappa)
+    scores = coarse_scores(evidence, size_hw, grid, templates)
+    peaks = find_peaks(scores, grid, config)
+    t2 = time.perf_counter()
+    timings["coarse"] = t2 - t1
+    hyps = _best_hypotheses(scores, peaks, grid, camera, config)
+    accepted, new_scores = _accept_in_depth_order(hyps, features, clutter, meshes, camera, config)
+    t3 = time.perf_counter()
+    timings["nms"] = t3 - t2
+    record = _record(accepted, new_scores, scores, grid, camera, config, img)
+    timings["record"] = time.perf_counter() - t3
+    record.timings = timings
+    return record
+
+
+def _record(accepted: list[Hypothesis], new_scores: list[float], scores: torch.Tensor, grid: Grid, camera: Camera,
+            config: ParserConfig, img: ImageInput) -> ObjectProposals:
+    n, k = len(accepted), config.azimuth_bins
+    tables = [_tables(scores, grid, h, config) for h in accepted]
+    cat = torch.stack([t[0] for t in tables]) if n else torch.zeros(0, len(CATEGORIES), dtype=torch.float64)
+    pose = torch.stack([t[1] for t in tables]) if n else torch.zeros(0, len(CATEGORIES), k, dtype=torch.float64)
+    size = torch.stack([t[2] for t in tables]) if n else torch.zeros(0, 2, dtype=torch.float64)
+    ownership = _ownership(accepted, camera, config, img.size)
+    masks = torch.stack([ownership == i for i in range(n)]) if n else torch.zeros(0, *ownership.shape, dtype=bool)
+    support = torch.tensor(config.azimuths, dtype=torch.float64).expand(n, k).clone()
+    return ObjectProposals(
+        existence_logodds=torch.tensor(new_scores, dtype=torch.float64) - config.existence_threshold,
+        category_loglik=cat, pose_support=support, pose_loglik=pose, size_loglik=size,
+        positions=torch.tensor([[h.x, h.y, 0.0] for h in accepted], dtype=torch.float64).reshape(n, 3),
+        depths=torch.tensor([h.depth for h in accepted], dtype=torch.float64),
+        rotations=torch.tensor([h.rotation for h in accepted], dtype=torch.float64),
+        boxes=_boxes(masks), masks=masks, ownership=ownership, camera=camera, notes=NOTES)
+
+
+@lru_cache(maxsize=1)
+def _default_model() -> FeatureModel:
+    return load_feature_model()
