@@ -124,7 +124,7 @@ class _EvidenceBuilder:
         for i, obj in enumerate(objs):
             s = ontology.SUBTYPES.index(obj.subtype)
             for p, raw in enumerate(ontology.PARTS[obj.subtype]):
-                vis[i, s, p] = self.binary(_part_visible(obj, raw))
+                vis[i, s, p] = self.binary(part_visible(obj, raw))
                 part_style = obj.parts.get(raw)
                 truth = style_index(part_style.color, part_style.material) if part_style else 0
                 style[i, s, p] = self.categorical(truth, NUM_STYLES)
@@ -142,7 +142,7 @@ class _EvidenceBuilder:
         return SceneEvidence(**tensors, directions=directions, boxes=boxes, camera=self.scene.camera)
 
 
-def _part_visible(obj: SceneObject, raw: str) -> bool:
+def part_visible(obj: SceneObject, raw: str) -> bool:
     """Recoloured parts are visible by construction; otherwise use the annotation (>= 20 visible pixels)."""
     if raw in obj.parts:
         return True

@@ -1,0 +1,55 @@
+"""``po3d train priors``: fit the scene model's priors to the rates of a built dataset's scenes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+
+def train_priors(
+    data: Path = typer.Option(..., "--data", help="Dataset directory from `po3d dataset build`."),
+    split: str = typer.Option("train", "--split", help="Split whose ground-truth scenes are counted."),
+    out: Path = typer.Option(None, "--out", help="Write the fitted priors and the counts as JSON here."),
+) -> None:
+    """Count the world's rates of every binary latent (occlusion, part visibility, recolouring, ...) and print them
+    beside the hand-set priors; the fitted ``ScenePriors`` are the smoothed rates."""
+    import json
+    from dataclasses import asdict
+
+    from rich.console import Console
+    from rich.progress import track
+    from rich.table import Table
+
+    from po3d_ppl.errors import InputError
+    from po3d_ppl.evidence import ScenePriors
+    from po3d_ppl.perception.priors import FITTED, fit_priors
+    from po3d_ppl.questions.parser_examples import open_dataset
+
+    dataset = open_dataset(data)
+    if split not in dataset.splits:
+        raise InputError("--split", f"unknown split {split!r} (known: {', '.join(dataset.splits)})")
+    indices = dataset.splits[split]
+    scenes = (dataset.scene(i) for i in track(indices, description=f"counting {split} scenes"))
+    fitted, rates = fit_priors(scenes)
+    hand_set = ScenePriors()
+    table = Table(title=f"world rates over {rates.scenes} {split} scenes of {data}")
+    for column in ("prior", "hand-set", "fitted", "counted"):
+        table.add_column(column)
+    for name in FITTED:
+        rate = rates.rates[name]
+        table.add_row(name, f"{getattr(hand_set, name):.3f}", f"{getattr(fitted, name):.4f}",
+                      f"{rate.hits} / {rate.total}")
+    table.add_row("exists", f"{hand_set.exists:.3f}", f"{fitted.exists:.3f}", "(kept: a parser's proposals)")
+    console = Console()
+    console.print(table)
+    if out is not None:
+        record = {"priors": asdict(fitted), "hand_set": asdict(hand_set), "split": split, "scenes": rates.scenes,
+                  "data": str(data), "counts": {k: [v.hits, v.total] for k, v in rates.rates.items()}}
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(record, indent=1) + "\n")
+        console.print(f"fitted priors -> {out}", markup=False, highlight=False)
+
+
+def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:
+    train_app.command("priors")(train_priors)

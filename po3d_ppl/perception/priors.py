@@ -1,0 +1,86 @@
+"""``ScenePriors`` fitted to the world's statistics: the rates of the scene model's binary latents in real scenes.
+
+The scene model's priors were hand-set and are off by factors of 2-10 in our world (docs/reasoning.md); a prior
+that does not match the world makes the posteriors over- or under-confident wherever the evidence is weak. Each
+rate is counted exactly as the simulated sensor reads the latent (:mod:`po3d_ppl.perception.simulated`), over
+ground-truth scenes of a training split, with add-one smoothing so that every prior stays in (0, 1).
+
+``exists`` is not a property of scenes but of a parser's proposals (how many it makes that are not objects): it
+keeps its hand-set value until the render-and-compare parser's proposals can be counted.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field, replace
+
+from po3d_ppl import ontology
+from po3d_ppl.errors import InputError
+from po3d_ppl.evidence import ScenePriors
+from po3d_ppl.perception.simulated import part_visible
+from po3d_ppl.world.scene import Scene
+
+
+@dataclass
+class Rate:
+    """A counted rate: ``hits`` of ``total`` (smoothed: (hits + 1) / (total + 2))."""
+
+    hits: int = 0
+    total: int = 0
+
+    def add(self, hit: bool) -> None:
+        self.hits += int(hit)
+        self.total += 1
+
+    @property
+    def smoothed(self) -> float:
+        return (self.hits + 1) / (self.total + 2)
+
+
+@dataclass
+class WorldRates:
+    """The rates of every binary latent of the scene model, by ``ScenePriors`` field."""
+
+    rates: dict[str, Rate] = field(default_factory=lambda: {name: Rate() for name in FITTED})
+    scenes: int = 0
+
+    def priors(self, base: ScenePriors = ScenePriors()) -> ScenePriors:
+        """``base`` with every fitted field replaced by its smoothed rate."""
+        return replace(base, **{name: rate.smoothed for name, rate in self.rates.items()})
+
+
+#: The ``ScenePriors`` fields a scene tells (``exists`` is about proposals, not scenes).
+FITTED = ("occluded", "occludes", "part_visible", "part_recoloured", "part_occluded", "part_occludes")
+
+
+def count_rates(scenes: Iterable[Scene]) -> WorldRates:
+    """Count the binary latents over ground-truth scenes (objects, ordered object pairs, part slots)."""
+    out = WorldRates()
+    r = out.rates
+    for scene in scenes:
+        out.scenes += 1
+        objects = scene.objects
+        for i, obj in enumerate(objects):
+            r["occluded"].add(obj.occluded)
+            for j in range(len(objects)):
+                if j != i:
+                    r["occludes"].add(j in obj.occluded_by)
+            for raw in ontology.PARTS[obj.subtype]:
+                visible = part_visible(obj, raw)
+                r["part_visible"].add(visible)
+                if visible:
+                    r["part_recoloured"].add(raw in obj.parts)
+                r["part_occluded"].add(obj.part_occluded(raw))
+                by = obj.part_occluded_by(raw)
+                for j in range(len(objects)):
+                    if j != i:
+                        r["part_occludes"].add(j in by)
+    if out.scenes == 0:
+        raise InputError("scenes", "no scenes to count rates over; give a split with at least one scene")
+    return out
+
+
+def fit_priors(scenes: Iterable[Scene], base: ScenePriors = ScenePriors()) -> tuple[ScenePriors, WorldRates]:
+    """(``base`` with the world's rates, the counts behind them)."""
+    rates = count_rates(scenes)
+    return rates.priors(base), rates
