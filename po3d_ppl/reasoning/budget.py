@@ -9,8 +9,8 @@ answers by falling back from exact inference to sampling, and which the other me
 
 A budget bounds the largest single tensor at half the memory cap (sized by its widest input's element: a
 comparison of bool sets costs a byte an element, float64 tables eight), leaving room for the few live tensors an
-engine holds at once; the fuzz benchmark
-(``benchmarks/bench_fuzz_inference.py``) measures the peak resident memory this gives.
+engine holds at once; the fuzz benchmark (``benchmarks/bench_fuzz_inference.py``) measures the peak resident
+memory this gives.
 """
 
 from __future__ import annotations
@@ -117,6 +117,12 @@ def _result_bytes(func, args, kwargs) -> int:
     return _broadcast_numel([t.shape for t in tensors]) * max(t.element_size() for t in tensors)
 
 
+def _check_clock(deadline: float | None, budget: Budget, what: str) -> None:
+    if deadline is not None and time.monotonic() > deadline:
+        raise TimeBudgetExceeded(f"{what} ran past its {budget.max_seconds:g} s budget; raise budget.max_seconds or "
+                                 "use method='sampling'")
+
+
 class _Guard(TorchFunctionMode):
     def __init__(self, budget: Budget, what: str):
         super().__init__()
@@ -133,9 +139,7 @@ class _Guard(TorchFunctionMode):
                 f"{self.what} would build a {size / 2**30:.2f} GiB tensor (limit "
                 f"{self.budget.max_tensor_bytes / 2**30:.2g} GiB for a {self.budget.max_bytes / 2**30:.2g} GiB "
                 "budget): refused before allocating; raise the budget or use method='sampling'")
-        if self.deadline is not None and time.monotonic() > self.deadline:
-            raise TimeBudgetExceeded(f"{self.what} ran past its {self.budget.max_seconds:g} s budget; raise "
-                                     "budget.max_seconds or use method='sampling'")
+        _check_clock(self.deadline, self.budget, self.what)
         return func(*args, **kwargs)
 
 
@@ -161,9 +165,7 @@ class LazyGuard:
         self.tick()
 
     def tick(self) -> None:
-        if self.deadline is not None and time.monotonic() > self.deadline:
-            raise TimeBudgetExceeded(f"{self.what} ran past its {self.budget.max_seconds:g} s budget; raise "
-                                     "budget.max_seconds or use method='sampling'")
+        _check_clock(self.deadline, self.budget, self.what)
 
     def close(self) -> None:
         if self._guard is not None:
