@@ -80,6 +80,21 @@ class ParserConfig:
     #: Footprints (category mesh's ground rectangle, scaled) shrunk by this factor must not intersect: objects do
     #: not interpenetrate, so overlapping hypotheses are one object.
     footprint_shrink: float = 0.7
+    #: Camera candidates per axis of the jitter box (``CameraPrior.candidate_offsets``; 1: the base camera only).
+    #: Off by default: a camera moved in x-y without turning is the same image as all objects moved the other way
+    #: on the uniform ground, so only its height is observable, through object size against depth, and that cue
+    #: picked wrong candidates on seed 712 (4 of 5 images; the true camera scored below the base one in 2 of 4).
+    camera_steps: int = 1
+    #: Local search around each accepted proposal: image offsets of its base centre up to this radius, this step.
+    local_radius_px: float = 12.0
+    local_step_px: float = 6.0
+    #: Gradient steps (Adam) on (x, y, yaw) of every accepted proposal; 0 keeps the searched pose.
+    refine_steps: int = 8
+    #: Adam step sizes: ground units for x and y, degrees for the yaw.
+    refine_lr_xy: float = 0.03
+    refine_lr_yaw: float = 3.0
+    #: Visible masks keep only pixels whose stride-8 cell scores above clutter for their owner.
+    mask_by_evidence: bool = True
     #: Stride of the final z-buffer giving masks, boxes and the ownership map.
     mask_stride: int = 2
 
@@ -260,13 +275,19 @@ def position_grid(camera: Camera, feature_size: tuple[int, int], templates: Temp
     rows, cols = torch.meshgrid(torch.arange(0, h, config.position_step), torch.arange(0, w, config.position_step),
                                 indexing="ij")
     pix = torch.stack([cols.reshape(-1), rows.reshape(-1)], -1).double() * STRIDE + STRIDE / 2
-    ground = backproject_to_plane(camera, pix)
-    ok = torch.isfinite(ground).all(-1) & (ground[:, :2].abs() <= config.ground_extent).all(-1)
+    return grid_at_pixels(camera, pix, templates, config.ground_extent)[0]
+
+
+def grid_at_pixels(camera: Camera, pix: torch.Tensor, templates: Templates, extent: float
+                   ) -> tuple[Grid, torch.Tensor]:
+    """The ground positions under ``camera`` of image points ``pix`` [P, 2] (base centres), and which were kept."""
+    ground = backproject_to_plane(camera, pix.double())
+    ok = torch.isfinite(ground).all(-1) & (ground[:, :2].abs() <= extent).all(-1)
     ground, pix = ground[ok], pix[ok]
     depth = project_points(camera, ground)[:, 2].float()
     logd = torch.log(templates.depths)[None, :] - torch.log(depth)[:, None]
     ref = logd.abs().argmin(-1)
-    return Grid(ground.float(), pix.float(), depth, ref, templates.depths[ref] / depth)
+    return Grid(ground.float(), pix.float(), depth, ref, templates.depths[ref] / depth), ok
 
 
 def cell_evidence(features: torch.Tensor, meshes: NeuralMeshes, kappa: float) -> tuple[list[torch.Tensor], torch.Tensor]:
@@ -285,22 +306,28 @@ def cell_evidence(features: torch.Tensor, meshes: NeuralMeshes, kappa: float) ->
 def coarse_scores(evidence: list[torch.Tensor], feature_size: tuple[int, int], grid: Grid, templates: Templates
                   ) -> torch.Tensor:
     """[P, 5, 2, A] render-and-compare log-likelihood ratios of every hypothesis against clutter."""
+    return torch.stack([category_scores(e, c, feature_size, grid, templates) for c, e in enumerate(evidence)], 1)
+
+
+def category_scores(e: torch.Tensor, c: int, feature_size: tuple[int, int], grid: Grid, templates: Templates
+                    ) -> torch.Tensor:
+    """[P, 2, A] scores of category ``c`` (its cell evidence ``e``) at the grid's positions."""
     h, w = feature_size
     ref = grid.ref
     scale = grid.scale[:, None, None, None]
-    out = []
-    for c, e in enumerate(evidence):
-        off = templates.offsets[c][:, ref].permute(1, 0, 2, 3, 4)  # [P, 2, A, N, 2]
-        vid = templates.vertex[c][:, ref].permute(1, 0, 2, 3)
-        wt = templates.weight[c][:, ref].permute(1, 0, 2, 3) * scale**2
-        px = grid.pixel[:, None, None, None, :] + off * scale[..., None]
-        col = torch.floor(px[..., 0] / STRIDE).long()
-        row = torch.floor(px[..., 1] / STRIDE).long()
-        inside = (col >= 0) & (col < w) & (row >= 0) & (row < h)
-        cell = torch.where(inside, row * w + col, h * w)
-        vals = e.reshape(-1)[cell * e.shape[1] + vid]
-        out.append((vals * wt).sum(-1))
-    return torch.stack(out, 1)
+    off = templates.offsets[c][:, ref].permute(1, 0, 2, 3, 4)  # [P, 2, A, N, 2]
+    vid = templates.vertex[c][:, ref].permute(1, 0, 2, 3)
+    wt = templates.weight[c][:, ref].permute(1, 0, 2, 3) * scale**2
+    px = grid.pixel[:, None, None, None, :] + off * scale[..., None]
+    col = torch.floor(px[..., 0] / STRIDE).long()
+    row = torch.floor(px[..., 1] / STRIDE).long()
+    inside = (col >= 0) & (col < w) & (row >= 0) & (row < h)
+    cell = torch.where(inside, row * w + col, h * w)
+    return (e.reshape(-1)[cell * e.shape[1] + vid] * wt).sum(-1)
+
+
+def subset(grid: Grid, keep: torch.Tensor) -> Grid:
+    return Grid(grid.ground[keep], grid.pixel[keep], grid.depth[keep], grid.ref[keep], grid.scale[keep])
 
 
 def find_peaks(scores: torch.Tensor, grid: Grid, config: ParserConfig) -> list[int]:
@@ -382,18 +409,8 @@ def _accept_in_depth_order(hyps: list[Hypothesis], features: torch.Tensor, clutt
 
     if not hyps:
         return [], []
-    verts, faces, counts = _posed_meshes(hyps)
-    frags = rasterize_camera(verts, faces, camera, stride=STRIDE, cull_backfaces=True)
-    tex = torch.zeros(len(hyps), verts.shape[1], meshes.dim)
-    for i, h in enumerate(hyps):
-        tex[i, : counts[i]] = meshes.textures[CATEGORIES[h.category]]
-    with torch.no_grad():
-        rendered = F.normalize(frags.interpolate(tex), dim=-1)  # [B, h, w, D]
-        hh, ww = frags.height, frags.width
-        f = features[:, :hh, :ww].permute(1, 2, 0)
-        fg = config.kappa * (rendered * f[None]).sum(-1) - clutter.view(hh, ww)[None]
-        mask = frags.mask
-        depth = frags.depth_map.detach()
+    fg, mask, depth = cell_scores(hyps, features, clutter, meshes, camera, config)
+    hh, ww = mask.shape[1:]
     footprint = mask.flatten(1).sum(-1).float()
     owner_depth = torch.full((hh, ww), float("inf"))
     owner_fg = torch.zeros(hh, ww)
@@ -438,6 +455,25 @@ def footprints_overlap(a: Hypothesis, b: Hypothesis, shrink: float) -> bool:
     return True
 
 
+def cell_scores(hyps: list[Hypothesis], features: torch.Tensor, clutter: torch.Tensor, meshes: NeuralMeshes,
+                camera: Camera, config: ParserConfig) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Each hypothesis rendered alone at stride 8: per cell its score ``kappa f . m`` (interpolated vertex features)
+    minus the clutter log-likelihood, its coverage and its depth ([B, h, w] each)."""
+    from po3d_ppl.perception.rasterizer import rasterize_camera
+
+    verts, faces, counts = _posed_meshes(hyps)
+    frags = rasterize_camera(verts, faces, camera, stride=STRIDE, cull_backfaces=True)
+    tex = torch.zeros(len(hyps), verts.shape[1], meshes.dim)
+    for i, h in enumerate(hyps):
+        tex[i, : counts[i]] = meshes.textures[CATEGORIES[h.category]]
+    with torch.no_grad():
+        rendered = F.normalize(frags.interpolate(tex), dim=-1)  # [B, h, w, D]
+        hh, ww = frags.height, frags.width
+        f = features[:, :hh, :ww].permute(1, 2, 0)
+        fg = config.kappa * (rendered * f[None]).sum(-1) - clutter.view(hh, ww)[None]
+    return fg, frags.mask, frags.depth_map.detach()
+
+
 def _final_check(accepted: list[int], hyps: list[Hypothesis], mask: torch.Tensor, depth: torch.Tensor,
                  fg: torch.Tensor, footprint: torch.Tensor, config: ParserConfig
                  ) -> tuple[list[Hypothesis], list[float]]:
@@ -456,18 +492,172 @@ def _final_check(accepted: list[int], hyps: list[Hypothesis], mask: torch.Tensor
     return out, scores
 
 
+# --- camera and position: local search around the accepted proposals ----------------------------------------------
+
+
+def _local_pixels(hyps: list[Hypothesis], camera: Camera, config: ParserConfig) -> tuple[torch.Tensor, torch.Tensor]:
+    """Image points around each proposal's projected base centre ([M, 2]) and the proposal of each ([M])."""
+    r = config.local_radius_px
+    d = torch.arange(-r, r + 1e-6, config.local_step_px, dtype=torch.float64)
+    dy, dx = torch.meshgrid(d, d, indexing="ij")
+    offs = torch.stack([dx.reshape(-1), dy.reshape(-1)], -1)
+    centres = project_points(camera, torch.tensor([[h.x, h.y, 0.0] for h in hyps], dtype=torch.float64))[:, :2]
+    pix = (centres[:, None] + offs[None]).reshape(-1, 2)
+    owner = torch.arange(len(hyps)).repeat_interleave(len(offs))
+    return pix, owner
+
+
+def estimate_camera(hyps: list[Hypothesis], evidence: list[torch.Tensor], feature_size: tuple[int, int],
+                    templates: Templates, prior: CameraPrior, config: ParserConfig) -> Camera:
+    """The camera-prior candidate (a grid over the jitter box) under which the accepted objects fit best: the sum
+    over proposals of their best local score with their category (object sizes against depth pin the camera)."""
+    base = prior.base
+    candidates = prior.candidates(config.camera_steps) if config.camera_steps > 1 else [base]
+    if len(candidates) == 1 or not hyps:
+        return base
+    pix, owner = _local_pixels(hyps, base, config)
+    cats = torch.tensor([h.category for h in hyps])[owner]
+    totals = []
+    for cam in candidates:
+        grid, ok = grid_at_pixels(cam, pix, templates, config.ground_extent + 1.0)
+        own, cat = owner[ok], cats[ok]
+        best = torch.full((len(hyps),), -1e9)
+        for c in cat.unique().tolist():
+            sel = cat == c
+            sc = category_scores(evidence[c], c, feature_size, subset(grid, sel), templates).flatten(1).max(-1).values
+            best = best.scatter_reduce(0, own[sel], sc, "amax")
+        totals.append(float(best.sum()))
+    return candidates[int(np.argmax(totals))]
+
+
+def relocate(hyps: list[Hypothesis], evidence: list[torch.Tensor], feature_size: tuple[int, int],
+             templates: Templates, camera: Camera, found_with: Camera, config: ParserConfig
+             ) -> tuple[list[Hypothesis], list[tuple[torch.Tensor, torch.Tensor, torch.Tensor] | None]]:
+    """Under ``camera``: each proposal's best local hypothesis (finer positions than the coarse grid) and its
+    tables (category [5], pose [5, A], size [2]): log-sum-exps over positions within ``table_radius`` of it."""
+    if not hyps:
+        return [], []
+    pix, owner = _local_pixels(hyps, found_with, config)
+    grid, ok = grid_at_pixels(camera, pix, templates, config.ground_extent + 1.0)
+    owner = owner[ok]
+    scores = coarse_scores(evidence, feature_size, grid, templates)
+    out, tables = [], []
+    for i, h in enumerate(hyps):
+        idx = torch.nonzero(owner == i).reshape(-1)
+        if idx.numel() == 0:
+            out.append(h)
+            tables.append(None)
+            continue
+        local = scores[idx]
+        flat = int(local.flatten().argmax())
+        p, c, s_, a = np.unravel_index(flat, local.shape)
+        q = int(idx[p])
+        x, y = (float(v) for v in grid.ground[q, :2])
+        rotation = float(_view_azimuth(camera, np.array([x, y])) - config.azimuths[a]) % 360.0
+        new = Hypothesis(q, int(c), int(s_), int(a), x, y, rotation, float(grid.depth[q]), float(local.max()))
+        near = idx[torch.linalg.norm(grid.ground[idx, :2] - grid.ground[q, :2], dim=-1) <= config.table_radius]
+        out.append(new)
+        tables.append(_tables_of(scores[near].double()))
+    return out, tables
+
+
+# --- refinement: gradient descent on the render-and-compare loss ---------------------------------------------------
+
+
+def refine(hyps: list[Hypothesis], features: torch.Tensor, clutter: torch.Tensor, meshes: NeuralMeshes,
+           camera: Camera, config: ParserConfig) -> list[Hypothesis]:
+    """A few Adam steps on every proposal's (x, y, yaw) at once, maximising its render-and-compare score: the sum
+    over the cells its mesh covers (minus the cells nearer proposals own) of ``kappa f . m`` (vertex features
+    interpolated by the rasteriser) against the clutter model. The hard z-buffer gives gradients through the
+    interpolation only (not the silhouette), so each proposal keeps its best-scoring iterate, never a worse one."""
+    from po3d_ppl.perception.category_meshes import category_mesh
+    from po3d_ppl.perception.rasterizer import pad_meshes, rasterize_camera
+
+    if not hyps or config.refine_steps <= 0:
+        return hyps
+    canon = pad_meshes([(torch.tensor(np.array(category_mesh(CATEGORIES[h.category]).vertices)),
+                         torch.tensor(np.array(category_mesh(CATEGORIES[h.category]).faces))) for h in hyps])
+    verts0, faces = canon
+    scale = torch.tensor([float(ontology.SIZE_SCALE[SIZES[h.size]]) for h in hyps], dtype=torch.float32)
+    tex = torch.zeros(len(hyps), verts0.shape[1], meshes.dim)
+    for i, h in enumerate(hyps):
+        tex[i, : meshes.textures[CATEGORIES[h.category]].shape[0]] = meshes.textures[CATEGORIES[h.category]]
+    occluded = _occluded_cells(hyps, camera, features.shape[1:])
+    f = features.permute(1, 2, 0).float()
+    bg = clutter.view(f.shape[0], f.shape[1])
+    x = torch.tensor([h.x for h in hyps], requires_grad=True)
+    y = torch.tensor([h.y for h in hyps], requires_grad=True)
+    yaw = torch.tensor([h.rotation for h in hyps], requires_grad=True)
+    opt = torch.optim.Adam([{"params": [x, y], "lr": config.refine_lr_xy},
+                            {"params": [yaw], "lr": config.refine_lr_yaw}])
+    best = torch.full((len(hyps),), -float("inf"))
+    best_pose = torch.stack([x, y, yaw], -1).detach().clone()
+    for _ in range(config.refine_steps + 1):
+        v = _pose_batch(verts0.float(), x, y, yaw, scale)
+        frags = rasterize_camera(v, faces, camera, stride=STRIDE, cull_backfaces=True)
+        rendered = F.normalize(frags.interpolate_sparse(tex), dim=-1)
+        b = frags.batch_index
+        cell = frags.pixel - b * frags.height * frags.width
+        keep = ~occluded.view(len(hyps), -1)[b, cell]
+        score_px = config.kappa * (rendered * f.reshape(-1, f.shape[-1])[cell]).sum(-1) - bg.reshape(-1)[cell]
+        per = torch.zeros(len(hyps)).index_add(0, b[keep], score_px[keep])
+        with torch.no_grad():
+            better = per > best
+            best = torch.where(better, per, best)
+            best_pose = torch.where(better[:, None], torch.stack([x, y, yaw], -1), best_pose)
+        opt.zero_grad()
+        (-per.sum()).backward()
+        opt.step()
+    out = []
+    for i, h in enumerate(hyps):
+        bx, by, byaw = (float(t) for t in best_pose[i])
+        pos = torch.tensor([bx, by, 0.0], dtype=torch.float64)
+        depth = float(project_points(camera, pos)[2])
+        azimuth = float(_view_azimuth(camera, np.array([bx, by])) - byaw) % 360.0
+        a = int(round(azimuth / (360.0 / config.azimuth_bins))) % config.azimuth_bins
+        out.append(Hypothesis(h.position, h.category, h.size, a, bx, by, byaw % 360.0, depth, h.score))
+    return out
+
+
+def _pose_batch(verts: torch.Tensor, x: torch.Tensor, y: torch.Tensor, yaw: torch.Tensor, scale: torch.Tensor
+                ) -> torch.Tensor:
+    """[B, V, 3] padded canonical vertices posed per item (differentiable in x, y, yaw)."""
+    th = torch.deg2rad(yaw)[:, None]
+    c, s = torch.cos(th), torch.sin(th)
+    vx, vy, vz = verts[..., 0], verts[..., 1], verts[..., 2]
+    k = scale[:, None]
+    return torch.stack([k * (c * vx - s * vy) + x[:, None], k * (s * vx + c * vy) + y[:, None], k * vz], -1)
+
+
+def _occluded_cells(hyps: list[Hypothesis], camera: Camera, size: tuple[int, int]) -> torch.Tensor:
+    """[B, h, w]: cells where another proposal's mesh is nearer than this one's (fixed during refinement)."""
+    from po3d_ppl.perception.rasterizer import rasterize_camera
+
+    verts, faces, _ = _posed_meshes(hyps)
+    frags = rasterize_camera(verts, faces, camera, stride=STRIDE, cull_backfaces=True)
+    depth = frags.depth_map.detach()[:, : size[0], : size[1]]
+    nearest = depth.min(0, keepdim=True).values
+    return frags.mask[:, : size[0], : size[1]] & (depth > nearest)
+
+
 # --- the record ----------------------------------------------------------------------------------------------------
 
 
-def _tables(scores: torch.Tensor, grid: Grid, hyp: Hypothesis, config: ParserConfig
-            ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """(category [5], pose [5, A], size [2]) log-sum-exps over positions near the peak and the other parameters."""
-    d = torch.linalg.norm(grid.ground[:, :2] - grid.ground[hyp.position, :2], dim=-1)
-    near = scores[d <= config.table_radius].double()  # [p, 5, 2, A]
+def _tables_of(near: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """(category [5], pose [5, A], size [2]) log-sum-exps of scores [p, 5, 2, A] over the other parameters."""
+    if near.shape[0] == 0:
+        raise InputError("scores", "no position to build the tables from")
     pose = torch.logsumexp(torch.logsumexp(near, 0), 1)  # [5, A]
     category = torch.logsumexp(pose, -1)
     size = torch.logsumexp(torch.logsumexp(torch.logsumexp(near, 0), -1), 0)
     return category, pose, size
+
+
+def _tables(scores: torch.Tensor, grid: Grid, hyp: Hypothesis, config: ParserConfig
+            ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Tables of a coarse-grid hypothesis: over grid positions within ``table_radius`` of its peak."""
+    d = torch.linalg.norm(grid.ground[:, :2] - grid.ground[hyp.position, :2], dim=-1)
+    return _tables_of(scores[d <= config.table_radius].double())
 
 
 def _ownership(hyps: list[Hypothesis], camera: Camera, config: ParserConfig, size: tuple[int, int]) -> torch.Tensor:
@@ -488,6 +678,18 @@ def _ownership(hyps: list[Hypothesis], camera: Camera, config: ParserConfig, siz
     small = torch.where(fmap >= 0, owner[fmap.clamp_min(0)], -1)
     full = small.repeat_interleave(config.mask_stride, 0).repeat_interleave(config.mask_stride, 1)
     return full[:height, :width]
+
+
+def _evidence_cut(ownership: torch.Tensor, fg: torch.Tensor) -> torch.Tensor:
+    """Pixels of an owner where its cell scores (bilinearly upsampled) fall below clutter go to the background:
+    the category mesh
+    encloses all its subtypes, so its silhouette overshoots the object (measured: aeroplane boxes too large)."""
+    h, w = ownership.shape
+    up = F.interpolate(fg[:, None], scale_factor=STRIDE, mode="bilinear", align_corners=False)[:, 0]
+    cells = (up > 0)[:, :h, :w]
+    own = ownership.clamp_min(0)
+    keep = torch.gather(cells, 0, own[None])[0]
+    return torch.where((ownership >= 0) & keep, ownership, -1)
 
 
 def _boxes(masks: torch.Tensor) -> torch.Tensor:
@@ -527,20 +729,33 @@ def parse_objects(image, model: FeatureModel | None = None, config: ParserConfig
     accepted, new_scores = _accept_in_depth_order(hyps, features, clutter, meshes, camera, config)
     t3 = time.perf_counter()
     timings["nms"] = t3 - t2
-    record = _record(accepted, new_scores, scores, grid, camera, config, img)
-    timings["record"] = time.perf_counter() - t3
+    found = camera
+    camera = estimate_camera(accepted, evidence, size_hw, templates, prior, config)
+    located, local_tables = relocate(accepted, evidence, size_hw, templates, camera, found, config)
+    tables = [t if t is not None else _tables(scores, grid, h, config)
+              for t, h in zip(local_tables, accepted)]
+    t4 = time.perf_counter()
+    timings["camera+relocate"] = t4 - t3
+    located = refine(located, features, clutter, meshes, camera, config)
+    t5 = time.perf_counter()
+    timings["refine"] = t5 - t4
+    t4 = t5
+    record = _record(located, new_scores, tables, camera, config, img,
+                     cell_scores(located, features, clutter, meshes, camera, config)[0] if located else None)
+    timings["record"] = time.perf_counter() - t4
     record.timings = timings
     return record
 
 
-def _record(accepted: list[Hypothesis], new_scores: list[float], scores: torch.Tensor, grid: Grid, camera: Camera,
-            config: ParserConfig, img: ImageInput) -> ObjectProposals:
+def _record(accepted: list[Hypothesis], new_scores: list[float], tables: list, camera: Camera,
+            config: ParserConfig, img: ImageInput, fg: torch.Tensor | None = None) -> ObjectProposals:
     n, k = len(accepted), config.azimuth_bins
-    tables = [_tables(scores, grid, h, config) for h in accepted]
     cat = torch.stack([t[0] for t in tables]) if n else torch.zeros(0, len(CATEGORIES), dtype=torch.float64)
     pose = torch.stack([t[1] for t in tables]) if n else torch.zeros(0, len(CATEGORIES), k, dtype=torch.float64)
     size = torch.stack([t[2] for t in tables]) if n else torch.zeros(0, 2, dtype=torch.float64)
     ownership = _ownership(accepted, camera, config, img.size)
+    if fg is not None and config.mask_by_evidence:
+        ownership = _evidence_cut(ownership, fg)
     masks = torch.stack([ownership == i for i in range(n)]) if n else torch.zeros(0, *ownership.shape, dtype=bool)
     support = torch.tensor(config.azimuths, dtype=torch.float64).expand(n, k).clone()
     return ObjectProposals(
