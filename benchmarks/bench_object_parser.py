@@ -59,11 +59,9 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(1)
 
-    from po3d_ppl import ontology
     from po3d_ppl.perception.object_parser import CATEGORIES, ParserConfig, parse_objects
     from po3d_ppl.questions.dataset import scene_seeds
     from po3d_ppl.world import generate_scene
-
     from po3d_ppl.world.sampler import SceneConfig
 
     config = SceneConfig() if args.camera_jitter is None else SceneConfig(camera_jitter=args.camera_jitter)
@@ -111,7 +109,6 @@ def main() -> None:
             rel_err.extend(np.linalg.norm(d - d.mean(0), axis=1).tolist())
         print(f"image {i}: {len(objs)} objects ({sum(big)} >= {args.min_pixels} px), {len(rec)} proposals, "
               f"{tp_img} matched, {times[-1]:.2f} s", flush=True)
-    _ = ontology
     precision = tp / max(n_pred, 1)
     recall = tp / max(n_gt, 1)
     coarse = [sum(v) for v in zip(stages["features"], stages["coarse"], stages["nms"])]
