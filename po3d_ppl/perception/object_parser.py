@@ -176,6 +176,8 @@ class ObjectProposals:
     masks: torch.Tensor
     ownership: torch.Tensor
     camera: Camera
+    #: The posed category mesh of each proposal (category, size, x, y, yaw), to render it (overlays, parts).
+    poses: list[Hypothesis] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
 
@@ -658,6 +660,19 @@ def refine(hyps: list[Hypothesis], features: torch.Tensor, clutter: torch.Tensor
     return out
 
 
+def keep_apart(moved: list[Hypothesis], accepted: list[Hypothesis], config: ParserConfig) -> list[Hypothesis]:
+    """Undo the moves (re-search, refinement) that made footprints intersect: best accepted first, a proposal whose
+    moved footprint meets one already kept goes back to its accepted pose (where 3D-NMS left them apart)."""
+    order = sorted(range(len(moved)), key=lambda i: -accepted[i].score)
+    kept: dict[int, Hypothesis] = {}
+    for i in order:
+        h = moved[i]
+        if any(footprints_overlap(h, k, config.footprint_shrink) for k in kept.values()):
+            h = accepted[i]
+        kept[i] = h
+    return [kept[i] for i in range(len(moved))]
+
+
 def _pose_batch(verts: torch.Tensor, x: torch.Tensor, y: torch.Tensor, yaw: torch.Tensor, scale: torch.Tensor
                 ) -> torch.Tensor:
     """[B, V, 3] padded canonical vertices posed per item (differentiable in x, y, yaw)."""
@@ -775,7 +790,7 @@ def parse_objects(image, model: FeatureModel | None = None, config: ParserConfig
               for t, h in zip(local_tables, accepted)]
     t4 = time.perf_counter()
     timings["camera+relocate"] = t4 - t3
-    located = refine(located, features, clutter, meshes, camera, config)
+    located = keep_apart(refine(located, features, clutter, meshes, camera, config), accepted, config)
     t5 = time.perf_counter()
     timings["refine"] = t5 - t4
     t4 = t5
@@ -803,7 +818,7 @@ def _record(accepted: list[Hypothesis], new_scores: list[float], tables: list, c
         positions=torch.tensor([[h.x, h.y, 0.0] for h in accepted], dtype=torch.float64).reshape(n, 3),
         depths=torch.tensor([h.depth for h in accepted], dtype=torch.float64),
         rotations=torch.tensor([h.rotation for h in accepted], dtype=torch.float64),
-        boxes=_boxes(masks), masks=masks, ownership=ownership, camera=camera, notes=NOTES)
+        boxes=_boxes(masks), masks=masks, ownership=ownership, camera=camera, poses=list(accepted), notes=NOTES)
 
 
 @lru_cache(maxsize=1)
