@@ -26,7 +26,8 @@
 4. *Local re-search and refinement*: around each accepted proposal every hypothesis is re-scored on a finer grid
    of image points (``local_step_px``), which gives its tables; then ``refine_steps`` Adam steps on (x, y, yaw) of
    all proposals at once maximise the rasterised render-and-compare score on their unoccluded cells (the hard
-   z-buffer gives gradients through the feature interpolation only; each keeps its best iterate).
+   z-buffer gives gradients through the feature interpolation only; each keeps its best iterate); a move that
+   makes two footprints intersect is undone (:func:`keep_apart`; the table's figures are the same with it).
 5. *Record*: tables are log-sum-exps of the scores over the other pose parameters (sizes, and positions within
    ``table_radius`` of the proposal), never argmaxes; ownership, masks and boxes come from one stride-2 z-buffer
    of the accepted meshes, cut where the cell evidence (bilinear) falls below clutter: the category mesh encloses
