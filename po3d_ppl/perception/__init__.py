@@ -10,7 +10,9 @@ Foundations of the render-and-compare parser, in place: image input with the wor
 (:mod:`~po3d_ppl.perception.category_meshes`), a torch rasteriser (:mod:`~po3d_ppl.perception.rasterizer`), and
 the stride-8 feature extractor with the neural textures and clutter bank trained by the contrastive objective
 (:mod:`~po3d_ppl.perception.features`, :mod:`~po3d_ppl.perception.neural_mesh`,
-:mod:`~po3d_ppl.perception.train_features`; shipped in ``models/perception_features.safetensors``).
+:mod:`~po3d_ppl.perception.train_features`; shipped in ``models/perception_features.safetensors``), and a first
+multi-object parser (:func:`~po3d_ppl.perception.object_parser.parse_objects`: coarse search, 3D-NMS, refinement,
+``ObjectProposals``), not yet turned into ``SceneEvidence``.
 They are imported lazily (the simulated sensor needs none of them).
 """
 
@@ -45,6 +47,7 @@ _LAZY = {
     "FeatureExtractor": "features", "FeatureConfig": "features", "extract_features": "features",
     "NeuralMeshes": "neural_mesh", "FeatureModel": "neural_mesh", "load_feature_model": "neural_mesh",
     "save_feature_model": "neural_mesh",
+    "parse_objects": "object_parser", "ObjectProposals": "object_parser", "ParserConfig": "object_parser",
 }
 
 __all__ = ["EvidenceSource", "SceneEvidence", "SimulatedSensor", "simulated_evidence", *_LAZY]
