@@ -17,8 +17,6 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 
 import torch
@@ -123,17 +121,18 @@ def _check_clock(deadline: float | None, budget: Budget, what: str) -> None:
                                  "use method='sampling'")
 
 
+def _deadline(budget: Budget) -> float | None:
+    return None if budget.max_seconds is None else time.monotonic() + budget.max_seconds
+
+
 class _Guard(TorchFunctionMode):
-    def __init__(self, budget: Budget, what: str):
+    def __init__(self, budget: Budget, what: str, deadline: float | None):
         super().__init__()
-        self.budget, self.what = budget, what
-        self.deadline = None if budget.max_seconds is None else time.monotonic() + budget.max_seconds
-        self.peak_bytes = 0
+        self.budget, self.what, self.deadline = budget, what, deadline
 
     def __torch_function__(self, func, types, args=(), kwargs=None):
         kwargs = kwargs or {}
         size = _result_bytes(func, args, kwargs)
-        self.peak_bytes = max(self.peak_bytes, size)
         if size > self.budget.max_tensor_bytes:
             raise MemoryBudgetExceeded(
                 f"{self.what} would build a {size / 2**30:.2f} GiB tensor (limit "
@@ -153,14 +152,12 @@ class LazyGuard:
     """
 
     def __init__(self, budget: Budget, what: str):
-        self.budget, self.what = budget, what
-        self.deadline = None if budget.max_seconds is None else time.monotonic() + budget.max_seconds
+        self.budget, self.what, self.deadline = budget, what, _deadline(budget)
         self._guard: _Guard | None = None
 
     def grow(self, bound: int) -> None:
         if bound > self.budget.max_elements and self._guard is None:
-            self._guard = _Guard(self.budget, self.what)
-            self._guard.deadline = self.deadline
+            self._guard = _Guard(self.budget, self.what, self.deadline)
             self._guard.__enter__()
         self.tick()
 
@@ -173,9 +170,6 @@ class LazyGuard:
             self._guard = None
 
 
-@contextmanager
-def enforce(budget: Budget, what: str = "inference") -> Iterator[_Guard]:
-    """Run the enclosed torch code within ``budget`` (see the module docstring)."""
-    guard = _Guard(budget, what)
-    with guard:
-        yield guard
+def enforce(budget: Budget, what: str = "inference") -> TorchFunctionMode:
+    """A context that runs the enclosed torch code within ``budget`` (see the module docstring)."""
+    return _Guard(budget, what, _deadline(budget))

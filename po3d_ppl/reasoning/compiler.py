@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import pyro
 import torch
 
+from po3d_ppl import ontology
 from po3d_ppl.errors import InputError
 from po3d_ppl.evidence import SceneEvidence, ScenePriors
 from po3d_ppl.reasoning import values
@@ -41,6 +42,13 @@ class CompiledProgram:
     @property
     def answer_type(self) -> str:
         return self.typed.type
+
+    def support(self, num_objects: int) -> list:
+        """Every answer the program can give over ``num_objects`` proposals (a count of parts can reach every
+        slot of every proposal)."""
+        counts_parts = any(node.operation.name == "count" and node.operation.inputs == ("PartSet",)
+                           for node in self.typed.nodes)
+        return values.support(self.answer_type, num_objects * ontology.MAX_PARTS if counts_parts else num_objects)
 
     def model(self, evidence: SceneEvidence, priors: ScenePriors = ScenePriors()) -> torch.Tensor:
         """The program as a Pyro model over the latent scene; its ``answer`` site is the program's output."""

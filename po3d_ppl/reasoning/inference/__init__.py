@@ -21,7 +21,6 @@ from functools import cached_property
 
 import torch
 
-from po3d_ppl import ontology
 from po3d_ppl.errors import InputError, UnknownNameError
 from po3d_ppl.evidence import SceneEvidence, ScenePriors
 from po3d_ppl.reasoning import values
@@ -87,10 +86,7 @@ class SceneReasoner:
 
     # ---- methods -------------------------------------------------------------------------------------------------
     def _support(self, compiled: CompiledProgram) -> list:
-        n = self.evidence.num_objects
-        counts_parts = any(node.operation.name == "count" and node.operation.inputs == ("PartSet",)
-                           for node in compiled.typed.nodes)
-        return values.support(compiled.answer_type, n * ontology.MAX_PARTS if counts_parts else n)
+        return compiled.support(self.evidence.num_objects)
 
     def _distribution(self, compiled, probs, invalid, method, **extra) -> AnswerDistribution:
         support = self._support(compiled)
