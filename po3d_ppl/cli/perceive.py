@@ -34,7 +34,7 @@ def perceive(
     record = proposals_record(proposals)
     (out / "proposals.json").write_text(json.dumps(record, indent=1) + "\n")
     rgb = (loaded.pixels.permute(1, 2, 0).numpy() * 255).round().astype(np.uint8)
-    if not cv2.imwrite(str(out / "overlay.png"), draw_overlay(rgb, proposals)[..., ::-1]):
+    if not cv2.imwrite(str(out / "overlay.png"), draw_overlay(rgb, proposals, record)[..., ::-1]):
         raise InputError("--out", f"cannot write {out / 'overlay.png'}")
     console = Console()
     if as_json:

@@ -38,22 +38,21 @@ def proposals_record(proposals) -> dict:
     return {"proposals": out, "timings_s": dict(proposals.timings), "notes": list(proposals.notes)}
 
 
-def draw_overlay(image_rgb: np.ndarray, proposals, alpha: float = 0.45) -> np.ndarray:
-    """``image_rgb`` (HxWx3 uint8, the parser's working size) with the proposals drawn on it (uint8 RGB)."""
+def draw_overlay(image_rgb: np.ndarray, proposals, record: dict | None = None, alpha: float = 0.45) -> np.ndarray:
+    """``image_rgb`` (HxWx3 uint8, the parser's working size) with the proposals drawn on it (uint8 RGB);
+    ``record`` is :func:`proposals_record` of them, when the caller has it already."""
+    entries = (record or proposals_record(proposals))["proposals"]
     canvas = image_rgb.astype(np.float32).copy()
-    record = proposals_record(proposals)["proposals"]
-    for i, entry in enumerate(record):
-        believed = entry["existence_logodds"] > 0
-        c = max(range(len(ontology.CATEGORIES)), key=lambda k: entry["category"][ontology.CATEGORIES[k]])
-        colour = np.array(CATEGORY_RGB[c] if believed else (150, 150, 150), dtype=np.float32)
-        mask = proposals.masks[i].numpy()
-        canvas[mask] = (1 - alpha) * canvas[mask] + alpha * colour
-    out = np.clip(canvas, 0, 255).astype(np.uint8)
-    for i, entry in enumerate(record):
-        believed = entry["existence_logodds"] > 0
+    looks = []
+    for i, entry in enumerate(entries):
         name = max(entry["category"], key=entry["category"].get)
-        colour = tuple(int(v) for v in (CATEGORY_RGB[ontology.CATEGORIES.index(name)] if believed
-                                        else (150, 150, 150)))
+        believed = entry["existence_logodds"] > 0
+        colour = CATEGORY_RGB[ontology.CATEGORIES.index(name)] if believed else (150, 150, 150)
+        looks.append((name, believed, colour))
+        mask = proposals.masks[i].numpy()
+        canvas[mask] = (1 - alpha) * canvas[mask] + alpha * np.array(colour, dtype=np.float32)
+    out = np.clip(canvas, 0, 255).astype(np.uint8)
+    for i, (entry, (name, believed, colour)) in enumerate(zip(entries, looks)):
         x, y, w, h = entry["box_xywh"]
         cv2.rectangle(out, (x, y), (x + w - 1, y + h - 1), colour, 2 if believed else 1)
         label = (f"{i} {name} {entry['category'][name]:.2f} az{entry['azimuth_degree']:.0f} "
