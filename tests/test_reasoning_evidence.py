@@ -136,3 +136,18 @@ def test_evidence_without_proposals_is_a_typed_refusal():
     for method in ("exact", "sampling"):
         with pytest.raises(EmptyEvidenceError, match="no object proposals"):
             reasoner.infer("count(scene())", method=method)
+
+
+def test_duplicate_pairs_finds_overlapping_boxes(scene):
+    import dataclasses
+
+    from po3d_ppl.evidence import EvidenceError, duplicate_pairs
+
+    evidence = simulated_evidence(scene)
+    n = evidence.num_objects
+    boxes = torch.tensor([[10.0 * 40 * i, 0.0, 30.0, 30.0] for i in range(n)], dtype=torch.float64)
+    boxes[1] = boxes[0] + torch.tensor([3.0, 3.0, 0.0, 0.0], dtype=torch.float64)  # IoU (27*27) / (2*900 - 729)
+    assert duplicate_pairs(dataclasses.replace(evidence, boxes=boxes), min_iou=0.5) == [(0, 1)]
+    assert duplicate_pairs(dataclasses.replace(evidence, boxes=boxes), min_iou=0.7) == []
+    with pytest.raises(EvidenceError, match="boxes"):
+        duplicate_pairs(dataclasses.replace(evidence, boxes=None))

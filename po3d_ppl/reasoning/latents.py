@@ -81,11 +81,6 @@ SITE = {site.name: site for site in SITES}
 BY_VALUE_NAME = {site.value_name: site for site in SITES}
 
 
-def sites_of(kind: str) -> tuple[str, ...]:
-    """Names of the sites of one kind, in model order."""
-    return tuple(site.name for site in SITES if site.kind == kind)
-
-
 #: The object-level sites (one value per proposal, at its own subtype hypothesis for a switch), in model order.
 OBJECT_SITES = tuple(site.name for site in SITES if site.kind in ("object", "object_by_model"))
 
