@@ -1,13 +1,14 @@
 """Reasoning: programs compile to Pyro models over a latent scene; answers are posterior marginals.
 
-Public surface (imported lazily so that the language tools, which only need the registry, start fast):
+Public surface (imported lazily: importing the package loads no torch):
 
-- :func:`register_operation` / :data:`REGISTRY` - add operations (``po3d_ppl.catalogue``);
-- :class:`SceneEvidence`, :class:`ScenePriors` - the perception -> reasoning contract (``evidence``);
+- :func:`register_operation` / :data:`REGISTRY` - add operations (re-exported from ``po3d_ppl.catalogue``);
+- :class:`SceneEvidence`, :class:`ScenePriors` - the perception -> reasoning contract (``po3d_ppl.evidence``);
 - :func:`scene_model` - the latent scene as a Pyro program (``scene_model``);
 - :func:`compile_program` -> :class:`CompiledProgram` - a program as a Pyro model with an ``answer`` site;
 - :func:`infer`, :class:`SceneReasoner` -> :class:`AnswerDistribution` - answers by ``exact``, ``sampling``,
-  ``dense``, ``generic``, ``auto`` or the ``thresholded``/``soft`` baselines (``inference``).
+  ``auto`` or the ``thresholded``/``soft`` baselines within a :class:`Budget` (``inference``); the ``dense`` and
+  ``generic`` references through ``SceneReasoner.reference``.
 """
 
 from po3d_ppl.catalogue import REGISTRY, register_operation, register_reference, register_world
