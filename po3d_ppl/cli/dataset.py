@@ -20,6 +20,9 @@ def build(
     height: int = typer.Option(480, "--height", help="Image height in pixels."),
     height_depth: bool = typer.Option(False, "--height-depth",
                                       help="Elevate aeroplanes and add height/depth questions."),
+    semantics: str = typer.Option("intended", "--semantics",
+                                  help="intended (default) or public: answers and generator rules of the public "
+                                       "Super-CLEVR-3D code (docs/semantics.md)."),
 ) -> None:
     """Render scenes, generate balanced questions and write images, scenes.json, questions/, splits, manifest."""
     from rich.console import Console
@@ -28,7 +31,8 @@ def build(
     from po3d_ppl.questions.dataset import BuildConfig, build_dataset
 
     check_seed(seed)
-    config = BuildConfig(scenes=scenes, seed=seed, width=width, height=height, height_depth=height_depth)
+    config = BuildConfig(scenes=scenes, seed=seed, width=width, height=height, height_depth=height_depth,
+                         semantics=semantics)
     notes = Console(stderr=True)
     report = build_dataset(out, config, workers=workers, progress=True,
                            notify=lambda note: notes.print(f"repair: {note}", markup=False, highlight=False,

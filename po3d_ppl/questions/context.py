@@ -17,6 +17,7 @@ from functools import cached_property
 import numpy as np
 
 from po3d_ppl import ontology
+from po3d_ppl.catalogue.semantics import DEFAULT_SEMANTICS, PUBLIC, check_semantics
 from po3d_ppl.errors import SceneFormatError
 from po3d_ppl.world.scene import RELATION_EPS, Scene, SceneObject
 
@@ -24,11 +25,21 @@ Part = tuple[int, int]
 
 
 class SceneContext:
-    """A ground-truth scene plus the indices the reference operations read."""
+    """A ground-truth scene plus the indices the reference operations read.
 
-    def __init__(self, scene: Scene):
+    Under ``semantics="public"`` the indices are those of the scene's public reading
+    (:func:`po3d_ppl.questions.public.public_reading`: one occluder per entity, the public part annotations, the
+    public pose formula); ``scene`` is then that reading.
+    """
+
+    def __init__(self, scene: Scene, semantics: str = DEFAULT_SEMANTICS):
         if not isinstance(scene, Scene):
             raise SceneFormatError(f"expected a po3d_ppl Scene, got {type(scene).__name__}")
+        self.semantics = check_semantics(semantics)
+        if semantics == PUBLIC:
+            from po3d_ppl.questions.public import public_reading  # the public module builds on this one
+
+            scene = public_reading(scene)
         self.scene = scene
         self.objects: tuple[SceneObject, ...] = scene.objects
         self.num_objects = n = len(scene.objects)

@@ -47,11 +47,17 @@ from pathlib import Path
 import numpy as np
 
 import po3d_ppl
+from po3d_ppl.catalogue.semantics import DEFAULT_SEMANTICS, PUBLIC, check_semantics
 from po3d_ppl.errors import DamagedFileError, InputError, Po3dError
-from po3d_ppl.questions.balance import AnswerBalancer
 from po3d_ppl.questions.generator import Candidate
-from po3d_ppl.questions.question_sets import question_sets
-from po3d_ppl.questions.scene_questions import families_of, public_question, scene_candidates, select_for_scene
+from po3d_ppl.questions.question_sets import public_family_index, question_sets
+from po3d_ppl.questions.scene_questions import (
+    balancer_for,
+    families_of,
+    public_question,
+    scene_candidates,
+    select_for_scene,
+)
 
 FORMAT_VERSION = 1
 SPLITS = ("train", "val", "test")
@@ -74,6 +80,8 @@ class BuildConfig:
     redundancy: float = 1.0
     min_objects: int = 3
     max_objects: int = 10
+    #: "intended" or "public" (docs/semantics.md): the answers, and the generator's rules, of that semantics
+    semantics: str = "intended"
 
     def __post_init__(self) -> None:
         def need(ok: bool, name: str, msg: str) -> None:
@@ -90,6 +98,12 @@ class BuildConfig:
              and math.isclose(sum(self.split_fractions), 1.0, abs_tol=1e-6), "split_fractions",
              "must be three non-negative fractions (train, val, test) summing to 1")
         need(-1.0 <= self.redundancy <= 1.0, "redundancy", "must be in [-1, 1]")
+        check_semantics(self.semantics)
+        need(not (self.semantics == PUBLIC and self.height_depth), "height_depth",
+             "the height/depth families have no public semantics (public scene files hold no above/below "
+             "relations); build them under semantics 'intended'")
+        need(not (self.semantics == PUBLIC and self.redundancy < 0), "redundancy",
+             "must be >= 0 under public semantics (the public generator crashes on part keys with r < 0)")
 
     def scene_config(self):
         from po3d_ppl.world.sampler import SceneConfig
@@ -98,7 +112,10 @@ class BuildConfig:
                            height=self.height, elevated_aeroplanes=self.height_depth)
 
     def to_json(self) -> dict:
-        return {**dataclasses.asdict(self), "split_fractions": list(self.split_fractions)}
+        out = {**dataclasses.asdict(self), "split_fractions": list(self.split_fractions)}
+        if self.semantics == DEFAULT_SEMANTICS:  # builds from before the setting read the same
+            del out["semantics"]
+        return out
 
 
 def split_sizes(n: int, fractions: Sequence[float]) -> tuple[int, int, int]:
@@ -282,7 +299,8 @@ def build_scene(root: Path, config: BuildConfig, index: int) -> SceneTiming:
     atomic_write_bytes(image_path(root, index), image)
     rendered_at = time.perf_counter()
     sets = question_sets(config.height_depth).values()
-    found = scene_candidates(scene, question_seed, families_of(sets), redundancy=config.redundancy)
+    found = scene_candidates(scene, question_seed, families_of(sets), redundancy=config.redundancy,
+                             semantics=config.semantics)
     # two JSON lines: the public scene (copied verbatim into scenes.json) and the candidates
     record = _dumps(scene_to_public(scene)) + "\n" + _dumps(
         [[f, i, [c.to_record() for c in cands]] for (f, i), cands in found.items()]) + "\n"
@@ -327,7 +345,7 @@ def _read_work(root: Path, index: int) -> tuple[str, list]:
 def _assemble(root: Path, config: BuildConfig) -> dict:
     """Write scenes.json, questions/*.json, splits.json and manifest.json from the work files, in scene order."""
     sets = question_sets(config.height_depth)
-    balancer = AnswerBalancer()
+    balancer = balancer_for(config.semantics)
     rng = np.random.default_rng(np.random.SeedSequence([config.seed], spawn_key=(7,)))
     (root / "questions").mkdir(exist_ok=True)
     scenes_file = _JsonListFile(root / "scenes.json", {"date": "", "version": "1.0", "split": "all",
@@ -346,6 +364,9 @@ def _assemble(root: Path, config: BuildConfig) -> dict:
             for name, chosen in select_for_scene(candidates, sets.values(), balancer, rng).items():
                 out = question_files[name]
                 for cand in chosen:
+                    if config.semantics == PUBLIC:
+                        cand = dataclasses.replace(cand, question_family_index=public_family_index(
+                            name, cand.template_filename, cand.question_family_index))
                     out.add(public_question(cand, index, IMAGE_PATTERN.format(index), split, out.count))
                     family_counts[name][f"{cand.template_filename}:{cand.question_family_index}"] += 1
         for f in outputs:

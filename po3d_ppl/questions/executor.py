@@ -11,6 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import partial
 
+from po3d_ppl.catalogue.semantics import PUBLIC, check_semantics
+from po3d_ppl.errors import InputError
 from po3d_ppl.language import as_typed_program
 from po3d_ppl.language.interpret import interpret
 from po3d_ppl.questions import reference
@@ -49,13 +51,29 @@ class ExecutionResult:
         return [to_public_output(v, t) for v, t in zip(self.outputs, self.types, strict=False)]
 
 
-def _context(scene: Scene | SceneContext) -> SceneContext:
-    return scene if isinstance(scene, SceneContext) else SceneContext(scene)
+def _context(scene: Scene | SceneContext, semantics: str | None) -> SceneContext:
+    if not isinstance(scene, SceneContext):
+        return SceneContext(scene, semantics or "intended")
+    if semantics is not None and check_semantics(semantics) != scene.semantics:
+        raise InputError("semantics", f"the scene context was built for {scene.semantics!r} semantics, not "
+                         f"{semantics!r}; build one with SceneContext(scene, {semantics!r})")
+    return scene
+
+
+def implementation_for(ctx: SceneContext):
+    """``op -> its reference implementation`` under the context's semantics."""
+    if ctx.semantics == PUBLIC:
+        from po3d_ppl.questions.public import public_implementation
+
+        return public_implementation
+    return lambda op: op.reference_fn
 
 
 def execute_nodes(ctx: SceneContext, typed) -> ExecutionResult:
-    """Run an already type-checked program (a ``po3d_ppl.language.TypedProgram``)."""
-    run = interpret(typed, lambda op: partial(op.reference_fn, ctx), stop_on=InvalidStep)
+    """Run an already type-checked program (a ``po3d_ppl.language.TypedProgram``) under the context's
+    semantics."""
+    pick = implementation_for(ctx)
+    run = interpret(typed, lambda op: partial(pick(op), ctx), stop_on=InvalidStep)
     if run.stopped_at is None:
         return ExecutionResult(run.outputs, typed.types)
     node = typed.nodes[run.stopped_at].node
@@ -63,9 +81,9 @@ def execute_nodes(ctx: SceneContext, typed) -> ExecutionResult:
                            f"program[{run.stopped_at}] ({node.function}): {run.reason}")
 
 
-def execute(scene: Scene | SceneContext, program: object) -> ExecutionResult:
+def execute(scene: Scene | SceneContext, program: object, semantics: str | None = None) -> ExecutionResult:
     """Run a public program (list of nodes; ``_output`` is ignored), a ``Program`` or a ``TypedProgram`` on a
-    scene.
+    scene, under ``semantics`` (``"intended"``, the default, or ``"public"``; a ``SceneContext`` carries its own).
 
     Raises the language stage's typed errors (``ProgramError`` subclasses, ``UnknownNameError``, ``InputError``)
     for an ill-formed program and ``SceneFormatError`` for a malformed scene; an invalid step is a result, not an
@@ -77,4 +95,4 @@ def execute(scene: Scene | SceneContext, program: object) -> ExecutionResult:
         if op.reference_fn is None:
             raise NotImplementedError(f"program[{index}]: operation {op.name}{op.signature} has no reference "
                                       "semantics (register one with register_reference)")
-    return execute_nodes(_context(scene), typed)
+    return execute_nodes(_context(scene, semantics), typed)

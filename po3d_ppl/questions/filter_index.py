@@ -9,6 +9,10 @@ slot) aligned with a tuple of slot types such as ``("Size", "Color", "Material",
 Part names are indexed under their canonical spelling (``ontology.canonical_part_name``: ``wheel_back_left`` on a
 bus is filed under ``back_left_wheel``, the name that reads the same) and their super-part name, so generated
 programs use one spelling per wording and the program is a function of the question text.
+
+Under public semantics (``ctx.semantics == "public"``) denotations follow the public rules instead: values are
+the scene's own values (raw part names as they are, and super-part names), a value selects every member whose
+attribute contains it (the public substring test) and poses carry the public labels.
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from po3d_ppl import ontology
+from po3d_ppl.catalogue.semantics import PUBLIC
 from po3d_ppl.questions.context import Part, SceneContext
 
 Key = tuple[str | None, ...]
@@ -45,6 +50,42 @@ class FilterIndex:
             for slot, value in pairs:
                 self.part_values[slot][value] = self.part_values[slot].get(value, 0) | bit
         self._keys: dict[tuple, dict[Key, int]] = {}
+        if ctx.semantics == PUBLIC:
+            self._public_denotations(ctx)
+
+    def _public_denotations(self, ctx: SceneContext) -> None:
+        """Re-file every value by the public rules (substring tests, public pose labels, raw part names)."""
+        from po3d_ppl.questions.public import public_match, public_pose_label, public_shape_match
+
+        objects = list(enumerate(ctx.objects))
+        tests = {"Size": lambda o, v: public_match(o.size, v), "Color": lambda o, v: public_match(o.color, v),
+                 "Material": lambda o, v: public_match(o.material, v),
+                 "Shape": lambda o, v: public_shape_match(o.subtype, v)}
+        for slot, test in tests.items():
+            self.object_values[slot] = {
+                v: m for v in self.object_values[slot]
+                if (m := sum(1 << i for i, o in objects if test(o, v)))}
+        poses: dict[str, int] = {}
+        for i, o in objects:
+            label = public_pose_label(o.pose_degree)
+            if label != ontology.NO_POSE:
+                poses[label] = poses.get(label, 0) | 1 << i
+        self.object_values["Pose"] = poses
+        names = {v for p in self.parts for v in (ctx.part_names[p], ontology.super_part_name(ctx.part_names[p]))}
+        self.part_values["Partname"] = {
+            v: m for v in sorted(names)
+            if (m := sum(bit for p, bit in self.part_bit.items() if public_match(ctx.part_names[p], v)))}
+        for slot in ("Size", "Color", "Material"):
+            attribute = slot.lower()
+            values = self.part_values[slot]
+            for v in list(values):
+                values[v] = 0
+                for p, bit in self.part_bit.items():
+                    style = ctx.part_style(p)
+                    own = None if style is None else (ctx.objects[p[0]].size if slot == "Size"
+                                                      else getattr(style, attribute))
+                    if public_match(own, v):
+                        values[v] |= bit
 
     # ---- conversions -------------------------------------------------------------------------------------------
     def object_mask(self, objects: Iterable[int]) -> int:

@@ -20,6 +20,14 @@ partial state is checked against the template's constraints, so dead branches ar
 
 The search returns a few *candidates* per family with distinct answers; :mod:`po3d_ppl.questions.balance`
 chooses among them to balance answers across a whole dataset.
+
+Under ``semantics="public"`` the generator follows the public code instead (docs/semantics.md rows 11-16, 21,
+22): answers come from the public reference (:mod:`po3d_ppl.questions.public`); ``NOT-NULL`` is enforced only for
+poses and need not be needed; ``NEQ`` skips when both params are set and *differ*; the ``extra_filter`` rule uses
+the public list (``opposite_pose``, ``relate``, ``same_*`` and ``relate_occluding_part`` not covered) for every
+aggregate; ``OUT_NEQ`` never sees a set equal to one of its members; with r > 0 keys redundant on the whole scene
+are dropped too; r < 0 on part keys is the public crash (an :class:`~po3d_ppl.errors.InputError`); pose values
+read "front pose"; a question that still holds a ``<Z>``/``<C>``/``<M>``/``<S>`` placeholder is dropped.
 """
 
 from __future__ import annotations
@@ -34,9 +42,13 @@ import numpy as np
 
 from po3d_ppl import ontology
 from po3d_ppl.catalogue import REGISTRY, Operation, value_vocabulary
+from po3d_ppl.catalogue.semantics import DEFAULT_SEMANTICS, PUBLIC
+from po3d_ppl.errors import InputError
 from po3d_ppl.questions.context import SceneContext
+from po3d_ppl.questions.executor import implementation_for
 from po3d_ppl.questions.filter_index import FilterIndex, Key
 from po3d_ppl.questions.program import to_public_output
+from po3d_ppl.questions.public import PUBLIC_RELATIONAL
 from po3d_ppl.questions.reference import InvalidStep
 from po3d_ppl.questions.template_format import FILTER_KINDS, OBJECT_SLOTS, PART_SLOTS, Template, load_template_file
 from po3d_ppl.questions.verbalise import fill_text, verbalise_answer
@@ -160,9 +172,11 @@ def _plan(filename: str, index: int) -> _Plan:
                  {t: tuple(v) for t, v in out_neq.items()})
 
 
-def _clash(a: object, ta: str, b: object, tb: str) -> bool:
+def _clash(a: object, ta: str, b: object, tb: str, public: bool = False) -> bool:
     if ta == tb:
         return a == b
+    if public:  # the public code compares a set with a part, which are never equal
+        return False
     if _SET_TYPES.get(ta) == tb:
         return b in a
     if _SET_TYPES.get(tb) == ta:
@@ -179,10 +193,13 @@ class SceneQuestionGenerator:
     """Generates candidate questions of any family over one scene, sharing the scene's filter denotations."""
 
     def __init__(self, scene: Scene | SceneContext, seed: int, *, redundancy: float = 1.0,
-                 max_candidates: int = 3, budget: int = 150):
+                 max_candidates: int = 3, budget: int = 150, semantics: str = DEFAULT_SEMANTICS):
         if not -1.0 <= redundancy <= 1.0:
             raise ValueError(f"redundancy must be in [-1, 1], got {redundancy}")
-        self.ctx = scene if isinstance(scene, SceneContext) else SceneContext(scene)
+        self.ctx = scene if isinstance(scene, SceneContext) else SceneContext(scene, semantics)
+        self.public = self.ctx.semantics == PUBLIC
+        self.relational_steps = PUBLIC_RELATIONAL if self.public else RELATIONAL
+        self.implementation = implementation_for(self.ctx)
         self.index = FilterIndex(self.ctx)
         self.seed, self.redundancy = int(seed), float(redundancy)
         self.max_candidates, self.budget = max_candidates, budget
@@ -213,8 +230,9 @@ class SceneQuestionGenerator:
             outs.update(self._empty_keys(step, outs))
         else:
             outs = index.keys(step.part_level, step.slots, step.forced_null, within)
-        check_scene = relational and aggregate in (None, "unique")
-        nonnull = tuple(s for s, need in enumerate(step.forced_nonnull) if need)
+        check_scene = relational and (self.public or aggregate in (None, "unique"))
+        nonnull = tuple(s for s, need in enumerate(step.forced_nonnull)
+                        if need and (not self.public or step.slots[s] == "Pose"))
         groups = step.groups
         null_key = (None,) * len(step.slots) if step.part_level else None
         allowed: dict[Key, int] = {}
@@ -235,8 +253,16 @@ class SceneQuestionGenerator:
                 continue
             needed = True
             for s, v in enumerate(key):
+                smaller = key[:s] + (None,) + key[s + 1:]
+                if v is None:
+                    continue
+                if self.public:  # the public rule: same-size denotation, on the subset or on the whole scene
+                    if allowed.get(smaller) == out or (smaller in scene_keys and
+                                                       scene_keys[smaller].bit_count() == scene_keys[key].bit_count()):
+                        needed = False
+                        break
                 # a NOT-NULL slot must also be needed: compare with the (disallowed) key without it
-                if v is not None and (outs if s in nonnull else allowed).get(key[:s] + (None,) + key[s + 1:]) == out:
+                elif (outs if s in nonnull else allowed).get(smaller) == out:
                     needed = False
                     break
             (minimal if needed else redundant).append((key, out))
@@ -310,13 +336,16 @@ class _Search:
             if all(p in a for p in group) and all(a[p] is None for p in group):
                 return False
         for p, q in plan.neq:
-            if a.get(p) is not None and a.get(p) == a.get(q):
+            if self.gen.public:  # the public (inverted) test: skip when both are set and differ
+                if p in a and q in a and a[p] != a[q]:
+                    return False
+            elif a.get(p) is not None and a.get(p) == a.get(q):
                 return False
         if t not in plan.out_neq_at:
             return True
         for i, j in plan.out_neq_at[t]:
             pi, pj = self.tmap[i], self.tmap[j]
-            if _clash(self.outputs[pi], self.types[pi], self.outputs[pj], self.types[pj]):
+            if _clash(self.outputs[pi], self.types[pi], self.outputs[pj], self.types[pj], self.gen.public):
                 return False
         return True
 
@@ -354,7 +383,7 @@ class _Search:
         mark = len(self.nodes)
         for value in choices:
             try:
-                out = op.reference_fn(self.ctx, *args, *([value] if param else []))
+                out = self.gen.implementation(op)(self.ctx, *args, *([value] if param else []))
             except InvalidStep:
                 continue
             fresh = param is not None and param not in self.assign
@@ -375,7 +404,7 @@ class _Search:
         node = self.tmpl.nodes[t]
         source = self.tmap[node["inputs"][0]]
         if step.relation_param is None:
-            self._filter_from(t, step, source, self.nodes[source]["type"] in RELATIONAL)
+            self._filter_from(t, step, source, self.nodes[source]["type"] in self.gen.relational_steps)
             return
         param = step.relation_param
         pool = [self.assign[param]] if param in self.assign else list(self.tmpl.param_values[param])
@@ -387,7 +416,7 @@ class _Search:
             if fresh:
                 self.assign[param] = relation
             self._push("relate", [source], [relation], related, "ObjectSet")
-            self._filter_from(t, step, mark, True)
+            self._filter_from(t, step, mark, not self.gen.public)  # raw relate is not in the public list
             self._pop_to(mark)
             if fresh:
                 del self.assign[param]
@@ -400,6 +429,9 @@ class _Search:
         within = index.part_mask(members) if step.part_level else index.object_mask(members)
         minimal, redundant = self.gen.filter_options(step, within, relational)
         r = self.gen.redundancy
+        if r < 0 and step.part_level and self.gen.public:
+            raise InputError("redundancy", f"{r} < 0 on part keys: the public generator crashes here "
+                             "(np.random.choice(p=[r, 1 - r])); use r >= 0 under public semantics")
         if r >= 1:
             options = minimal
         elif r > 0:
@@ -466,6 +498,11 @@ class _Search:
         )
         texts = self.tmpl.texts
         text = texts[int(self.rng.integers(len(texts)))]
-        question = fill_text(text, self.tmpl.param_types, self.assign, self.rng)
+        types = self.tmpl.param_types
+        if self.gen.public:  # a pose value is verbalised like a part name: "front pose"
+            types = {p: "Partname" if t == "Pose" and self.assign.get(p) else t for p, t in types.items()}
+        question = fill_text(text, types, self.assign, self.rng)
+        if self.gen.public and any(f"<{c}" in question for c in "ZCMS"):
+            return  # the public post-filling check
         self.found.append(Candidate(self.tmpl.filename, self.tmpl.index, question, program,
                                     verbalise_answer(answer, self.types[-1]), self.types[-1]))

@@ -8,6 +8,9 @@ The released Super-CLEVR-3D question files map to template directories (spec §3
 subset (occlusion 2-5, occlusion_by 1-8). ``core`` (CLEVR-style questions) and ``height_depth`` (elevated
 aeroplanes, paper §6) are ours. Family indices are always those of our full template files, so a family has one
 identity across question files.
+
+Under public semantics (docs/semantics.md row 24) the ``obj_occlusion`` file numbers its families like the public
+``super_clevr_object_occlusion`` copies (occlusion 2-5 -> 0-3, occlusion_by 1-8 -> 0-7): :func:`public_family_index`.
 """
 
 from __future__ import annotations
@@ -28,6 +31,15 @@ class QuestionSet:
 
 def _all(filename: str) -> tuple[tuple[str, int], ...]:
     return tuple((filename, i) for i in range(len(load_template_file(filename))))
+
+
+#: question set -> template file -> offset of the public renumbering (row 24)
+PUBLIC_RENUMBERING = {"obj_occlusion": {"occlusion.json": 2, "occlusion_by.json": 1}}
+
+
+def public_family_index(question_set: str, filename: str, index: int) -> int:
+    """The family index a public question file uses for our family ``filename:index`` in ``question_set``."""
+    return index - PUBLIC_RENUMBERING.get(question_set, {}).get(filename, 0)
 
 
 def question_sets(height_depth: bool = False) -> dict[str, QuestionSet]:
