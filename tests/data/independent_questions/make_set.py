@@ -75,8 +75,9 @@ REL_W = {"left": ["left of", "to the left of", "on the left side of"],
          "behind": ["behind"], "front": ["in front of"]}
 REL_W_EXT = {"left": ["left of", "to the left of", "on the left side of", "on the left of"],
              "right": ["right of", "to the right of", "on the right side of", "on the right of"],
-             "behind": ["behind", "in back of", "farther back than", "at the back of"],
-             "front": ["in front of", "ahead of", "closer to the camera than"]}
+             "behind": ["behind", "in back of"],
+             "front": ["in front of"]}
+# (not "closer to the camera than" / "farther back than": those are the relate[closer] / relate[farther] relations)
 # "it"-forms for "There is a X; how many Y are <rel-it>?"
 REL_IT = {"left": ["left of it", "to the left of it", "on the left side of it", "to its left"],
           "right": ["right of it", "to the right of it", "on the right side of it", "to its right"],
@@ -247,7 +248,7 @@ def plural(noun, style):
         lp = PLURAL_EXC[last]
         if last == "bus" and style.quirk:
             lp = "buss"
-    elif last.endswith("s") or last.endswith("x"):
+    elif last.endswith(("s", "x", "ch", "sh")):
         lp = last + "es"
     else:
         lp = last + "s"
@@ -847,12 +848,16 @@ PQ = {"color": ["What color is the {P} of {X}?", "What is the color of the {P} o
                    "The {P} of {X} is made of what material?"]}
 
 
-def part_key(w, part, pool, rng, st, exclude=()):
-    """Shortest description of a part among ``pool`` (parts): partname (full or super) plus colour/material."""
+def part_key(w, part, pool, rng, st, exclude=(), loose_super=False):
+    """Shortest description of a part among ``pool`` (parts): partname (full or super) plus colour/material.
+
+    A bare super-part name ("the wheel of the car") is used only when the object has one part of that kind at
+    all, unless ``loose_super`` ("the car whose wheel is occluded" reads fine with any wheel)."""
     raw = w.pname(part)
     full, sup = O.canonical_part_name(raw), O.super_part_name(raw)
     style = w.pstyle(part)
     names = [full] + ([sup] if sup != full else [])
+    n_sup = sum(O.super_part_name(r) == sup for r in O.PARTS[w.obj[part[0]]["subtype"]])
     cands = []
     for nm in names:
         for c in ([None] if "color" in exclude or style is None else [None, style.color]):
@@ -865,7 +870,7 @@ def part_key(w, part, pool, rng, st, exclude=()):
                 sel = [p for p in pool if O.partname_matches(w.pname(p), nm) and
                        (c is None or (w.pstyle(p) and w.pstyle(p).color == c)) and
                        (m is None or (w.pstyle(p) and w.pstyle(p).material == m))]
-                if sel == [part]:
+                if sel == [part] and not (nm == sup != full and len(k) == 1 and n_sup > 1 and not loose_super):
                     cands.append(k)
     if not cands:
         return None
@@ -1385,7 +1390,7 @@ def q_part_occ(w, rng, st):
             if attr == "shape" and kj.get("shape") in O.SUBTYPES:
                 kj = {}
         pool = [p for p in allocc if p[0] in denote(w, kj, w.all)]
-        pk = part_key(w, part, pool, rng, st, exclude=("color", "material"))
+        pk = part_key(w, part, pool, rng, st, exclude=("color", "material"), loose_super=True)
         if pk is None:
             return None
         pw = part_words(pk["partname"], rng, st)
@@ -1403,7 +1408,7 @@ def q_part_occ(w, rng, st):
         if kj is None:
             return None
         part = rng.choice(hidden)
-        pk = part_key(w, part, hidden, rng, st, exclude=("color", "material"))
+        pk = part_key(w, part, hidden, rng, st, exclude=("color", "material"), loose_super=True)
         if pk is None:
             return None
         attr = pick(rng, ATTRS)
