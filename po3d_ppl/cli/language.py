@@ -44,8 +44,16 @@ def parse(
 
 
 def train_parser_command(
-    data: list[Path] = typer.Option(..., "--data", help="Dataset directory from `po3d dataset build` "
-                                                         "(repeat to train on several)."),
+    data: list[Path] = typer.Option(None, "--data", help="Dataset directory from `po3d dataset build` "
+                                                          "(repeat to train on several)."),
+    corpus: int = typer.Option(0, "--corpus", min=0, help="Also train on this many questions of the parser corpus "
+                                                           "(every template family, realised phrasings; no scenes)."),
+    corpus_seed: int = typer.Option(1, "--corpus-seed", min=0, help="Seed of the training corpus (the validation "
+                                                                     "corpus uses seed + 1000)."),
+    corpus_val: int = typer.Option(3000, "--corpus-val", min=0, help="Validation questions drawn from the corpus."),
+    ngram_buckets: int = typer.Option(4096, "--ngram-buckets", min=0,
+                                      help="Character n-gram hash buckets of the subword input (0: words only)."),
+    max_minutes: float = typer.Option(None, "--max-minutes", help="Stop training after this many minutes."),
     seed: int = typer.Option(0, "--seed", help="Seed for initialisation, shuffling and dropout (>= 0)."),
     epochs: int = typer.Option(6, "--epochs", min=1, help="Passes over the training split."),
     batch_size: int = typer.Option(64, "--batch-size", min=1),
@@ -65,26 +73,33 @@ def train_parser_command(
     import dataclasses
     import time
 
+    import torch
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
+    from po3d_ppl.cli._common import check_seed
     from po3d_ppl.errors import InputError
-    from po3d_ppl.questions.parser_examples import open_dataset, split_examples
     from po3d_ppl.language.seq2seq.model_io import MODEL_NAME, save_parser
     from po3d_ppl.language.seq2seq.train import TrainConfig, train_parser
     from po3d_ppl.language.typecheck import default_registry
     from po3d_ppl.model_store import models_dir, write_entry
-
-    import torch
-
-    from po3d_ppl.cli._common import check_seed
+    from po3d_ppl.questions.parser_examples import open_dataset, split_examples
 
     check_seed(seed)
     torch.set_num_threads(threads)
     console = Console()
     registry = default_registry()
+    if not data and not corpus:
+        raise InputError("--data/--corpus", "give a dataset (--data DIR) or a corpus size (--corpus N)")
     train, validation, data_manifests = [], [], []
-    for directory in data:
+    if corpus:
+        from po3d_ppl.questions.parser_corpus import CorpusConfig, generate_corpus
+
+        train += generate_corpus(corpus, CorpusConfig(seed=corpus_seed))
+        validation += generate_corpus(corpus_val, CorpusConfig(seed=corpus_seed + 1000))
+        data_manifests.append({"seed": corpus_seed, "config": {"corpus": corpus, "corpus_val": corpus_val,
+                                                               "val_seed": corpus_seed + 1000}})
+    for directory in data or ():
         dataset = open_dataset(directory)
         data_manifests.append(dataset.manifest)
         train += split_examples(dataset, "train")
@@ -93,7 +108,8 @@ def train_parser_command(
         except InputError:  # a dataset without val questions
             pass
     config = TrainConfig(seed=seed, epochs=epochs, batch_size=batch_size, lr=lr, hidden=hidden, embed=embed,
-                         max_steps=max_steps, constrained_loss=not unconstrained_loss)
+                         max_steps=max_steps, constrained_loss=not unconstrained_loss, ngram_buckets=ngram_buckets,
+                         max_seconds=None if max_minutes is None else 60 * max_minutes)
     console.print(f"training on {len(train)} questions, validating on {len(validation)}", highlight=False)
     start = time.perf_counter()
     with Progress(TextColumn("[bold]train parser"), BarColumn(), MofNCompleteColumn(),
@@ -114,7 +130,8 @@ def train_parser_command(
     if history and "val_exact_match" in history[-1]:
         metrics["val_exact_match"] = max(h["val_exact_match"] for h in history)
     entry = write_entry(MODEL_NAME, files, directory,
-                        command=_train_command(data, config, out),
+                        command=_train_command(data or [], config, out, corpus, corpus_seed, corpus_val,
+                                               max_minutes, threads),
                         data_seed=[m.get("seed") for m in data_manifests],
                         data_config=[m.get("config") for m in data_manifests],
                         train_config=dataclasses.asdict(config), metrics=metrics)
@@ -139,11 +156,10 @@ def eval_parser_command(
     from rich.console import Console
     from rich.table import Table
 
-    from po3d_ppl.language import QuestionParser
-    from po3d_ppl.questions.parser_examples import open_dataset, split_examples
-    from po3d_ppl.language.seq2seq.train import evaluate
-
     from po3d_ppl.cli._common import literal
+    from po3d_ppl.language import QuestionParser
+    from po3d_ppl.language.seq2seq.train import evaluate
+    from po3d_ppl.questions.parser_examples import open_dataset, split_examples
 
     torch.set_num_threads(threads)
     parser = QuestionParser.load(model_dir)
@@ -183,11 +199,17 @@ def eval_parser_command(
         record_metrics(MODEL_NAME, f"eval_seed{report['data_seed']}_{split}", summary, model_dir or models_dir())
 
 
-def _train_command(data: list[Path], config, out: Path | None) -> str:
+def _train_command(data: list[Path], config, out: Path | None, corpus: int = 0, corpus_seed: int = 1,
+                   corpus_val: int = 3000, max_minutes: float | None = None, threads: int = 1) -> str:
     """The training command with every setting spelled out (defaults included), to reproduce the weights."""
     words = ["po3d", "train", "parser"]
     for directory in data:
         words += ["--data", str(directory)]
+    if corpus:
+        words += ["--corpus", str(corpus), "--corpus-seed", str(corpus_seed), "--corpus-val", str(corpus_val)]
+    words += ["--ngram-buckets", str(config.ngram_buckets), "--threads", str(threads)]
+    if max_minutes is not None:
+        words += ["--max-minutes", str(max_minutes)]
     words += ["--seed", str(config.seed), "--epochs", str(config.epochs), "--batch-size", str(config.batch_size),
               "--lr", str(config.lr), "--hidden", str(config.hidden), "--embed", str(config.embed)]
     if config.max_steps is not None:

@@ -181,3 +181,21 @@ def load_template_file(filename: str) -> tuple[Template, ...]:
 def template_files() -> list[str]:
     return sorted(p.name for p in resources.files("po3d_ppl.questions.templates").iterdir()
                   if p.name.endswith(".json"))
+
+
+#: Template folders beside the dataset files: families the question parser's corpus instantiates but dataset builds
+#: do not (``clevr/``: the 90 CLEVR-core families).
+TEMPLATE_FOLDERS = ("clevr",)
+
+
+@cache
+def load_template_folder(folder: str) -> dict[str, tuple[Template, ...]]:
+    """The families of every template file of a shipped folder, keyed ``folder/file.json``."""
+    if folder not in TEMPLATE_FOLDERS:
+        raise TemplateError("template folder", f"{folder!r} is not shipped; known: {', '.join(TEMPLATE_FOLDERS)}")
+    root = resources.files("po3d_ppl.questions.templates").joinpath(folder)
+    out = {}
+    for path in sorted((p for p in root.iterdir() if p.name.endswith(".json")), key=lambda p: p.name):
+        name = f"{folder}/{path.name}"
+        out[name] = tuple(parse_template(name, i, raw) for i, raw in enumerate(json.loads(path.read_text())))
+    return out

@@ -30,14 +30,14 @@ def _masked_log_softmax(logits: torch.Tensor, allowed: np.ndarray) -> torch.Tens
 
 @torch.inference_mode()
 def beam_search(model: Seq2SeqParser, automaton: TypeAutomaton, words: torch.Tensor, n: int = 1, beam: int = 5,
-                weights: StepWeights | None = None) -> list[Hypothesis]:
+                weights: StepWeights | None = None, ngrams: torch.Tensor | None = None) -> list[Hypothesis]:
     """The ``n`` most probable complete programs for one question ``words`` ``[T]`` (beam width ``beam``).
 
     ``weights`` (from :meth:`Seq2SeqParser.step_weights`) can be computed once and passed in to save time.
     """
     beam = max(beam, n)
     w = weights or model.step_weights()
-    memory, keys, h, c = model.start(words)
+    memory, keys, h, c = model.start(words, ngrams)
     active: list[tuple[tuple[int, ...], DecodeState]] = [((), automaton.initial())]
     active_scores = torch.zeros(1)
     finished: list[Hypothesis] = []
@@ -74,12 +74,12 @@ def beam_search(model: Seq2SeqParser, automaton: TypeAutomaton, words: torch.Ten
 @torch.inference_mode()
 def greedy(model: Seq2SeqParser, words: torch.Tensor, automaton: TypeAutomaton | None = None,
            arity: dict[int, int] | None = None, max_len: int = 64,
-           weights: StepWeights | None = None) -> list[int]:
+           weights: StepWeights | None = None, ngrams: torch.Tensor | None = None) -> list[int]:
     """Greedy decoding of one question on the same fast step as :func:`beam_search`. With ``automaton`` it is
     constrained; without (the baseline) it takes the arg-max over the whole vocabulary and stops when
     ``arity`` says the prefix program is complete (value tokens take no slot), or at ``max_len``."""
     w = weights or model.step_weights()
-    memory, keys, h, c = model.start(words)
+    memory, keys, h, c = model.start(words, ngrams)
     state = automaton.initial() if automaton is not None else None
     open_slots, ids = 1, []
     prev = torch.zeros(1, dtype=torch.long, device=words.device)
@@ -105,12 +105,13 @@ def greedy(model: Seq2SeqParser, words: torch.Tensor, automaton: TypeAutomaton |
 
 @torch.inference_mode()
 def greedy_batch(model: Seq2SeqParser, automaton: TypeAutomaton | None, words: torch.Tensor,
-                 lengths: torch.Tensor, arity: dict[int, int] | None = None, max_len: int = 64) -> list[list[int]]:
+                 lengths: torch.Tensor, arity: dict[int, int] | None = None, max_len: int = 64,
+                 ngrams: torch.Tensor | None = None) -> list[list[int]]:
     """Greedy decoding of a batch. With ``automaton`` the output is constrained; without it (the baseline) the
     arg-max token is taken from the whole vocabulary and a sequence ends when ``arity`` says the prefix program
     is complete (value tokens take no slot), or at ``max_len``."""
     batch = words.shape[0]
-    memory, mask, state = model.encode(words, lengths)
+    memory, mask, state = model.encode(words, lengths, ngrams)
     prev = torch.zeros(batch, 1, dtype=torch.long, device=words.device)
     outputs: list[list[int]] = [[] for _ in range(batch)]
     states = [automaton.initial() for _ in range(batch)] if automaton else None

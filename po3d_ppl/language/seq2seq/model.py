@@ -24,6 +24,8 @@ class ParserConfig:
     embed: int = 64
     hidden: int = 128
     dropout: float = 0.1
+    #: Hash buckets of the character n-gram (subword) embedding; 0 = words only (the first shipped model).
+    ngram_buckets: int = 0
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -35,6 +37,10 @@ class Seq2SeqParser(nn.Module):
         self.config = config
         h, e = config.hidden, config.embed
         self.word_embedding = nn.Embedding(config.words, e, padding_idx=0)
+        #: Subword input: the mean of a word's hashed character n-gram embeddings is added to its word embedding,
+        #: so a word never seen in training (a typo, a plural, a new compound) still reads like its neighbours.
+        self.ngram_embedding = (nn.Embedding(config.ngram_buckets, e, padding_idx=0) if config.ngram_buckets
+                                else None)
         self.encoder = nn.LSTM(e, h // 2, batch_first=True, bidirectional=True)
         self.bridge = nn.Linear(h, 2 * h)
         self.token_embedding = nn.Embedding(config.targets, e)
@@ -50,10 +56,23 @@ class Seq2SeqParser(nn.Module):
             for p in self.parameters():
                 p.uniform_(-0.1, 0.1, generator=generator)
             self.word_embedding.weight[0].zero_()
+            if self.ngram_embedding is not None:
+                self.ngram_embedding.weight[0].zero_()
 
-    def encode(self, words: torch.Tensor, lengths: torch.Tensor):
+    def embed(self, words: torch.Tensor, ngrams: torch.Tensor | None) -> torch.Tensor:
+        """Word embeddings ``[..., E]`` plus, with subword input, the mean of the n-gram embeddings
+        (``ngrams`` ``[..., K]``, 0-padded)."""
+        embedded = self.word_embedding(words)
+        if self.ngram_embedding is not None:
+            if ngrams is None:
+                raise ValueError("this parser reads character n-grams: pass ngrams")
+            count = (ngrams > 0).sum(-1, keepdim=True).clamp(min=1)
+            embedded = embedded + self.ngram_embedding(ngrams).sum(-2) / count
+        return embedded
+
+    def encode(self, words: torch.Tensor, lengths: torch.Tensor, ngrams: torch.Tensor | None = None):
         """Encoder states ``[B, T, H]``, their padding mask ``[B, T]`` and the decoder's initial (h, c)."""
-        embedded = self.dropout(self.word_embedding(words))
+        embedded = self.dropout(self.embed(words, ngrams))
         packed = pack_padded_sequence(embedded, lengths.cpu(), batch_first=True, enforce_sorted=False)
         states, (h, _) = self.encoder(packed)
         memory, _ = pad_packed_sequence(states, batch_first=True, total_length=words.shape[1])
@@ -71,8 +90,9 @@ class Seq2SeqParser(nn.Module):
         combined = torch.tanh(self.combine(torch.cat([outputs, context], dim=-1)))
         return self.output(self.dropout(combined)), state
 
-    def forward(self, words: torch.Tensor, lengths: torch.Tensor, tokens_in: torch.Tensor) -> torch.Tensor:
-        memory, mask, state = self.encode(words, lengths)
+    def forward(self, words: torch.Tensor, lengths: torch.Tensor, tokens_in: torch.Tensor,
+                ngrams: torch.Tensor | None = None) -> torch.Tensor:
+        memory, mask, state = self.encode(words, lengths, ngrams)
         logits, _ = self.decode(tokens_in, state, memory, mask)
         return logits
 
@@ -90,10 +110,11 @@ class Seq2SeqParser(nn.Module):
             output_bias=self.output.bias.detach(),
         )
 
-    def start(self, words: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+    def start(self, words: torch.Tensor, ngrams: torch.Tensor | None = None
+              ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """For one question ``words`` ``[T]`` (eval mode): encoder states ``[T, H]``, their attention keys (the
         general-attention projection, applied once instead of at every step) and the initial (h, c) ``[1, H]``."""
-        embedded = self.word_embedding(words[None, :])
+        embedded = self.embed(words[None, :], None if ngrams is None else ngrams[None])
         memory, (h, _) = self.encoder(embedded)
         h0, c0 = torch.tanh(self.bridge(torch.cat([h[0], h[1]], dim=-1))).chunk(2, dim=-1)
         memory = memory[0]

@@ -21,7 +21,7 @@ from po3d_ppl.language.seq2seq.constraints import TypeAutomaton
 from po3d_ppl.language.seq2seq.data import Example
 from po3d_ppl.language.seq2seq.decode import greedy_batch
 from po3d_ppl.language.seq2seq.model import ParserConfig, Seq2SeqParser
-from po3d_ppl.language.seq2seq.vocab import TargetVocabulary, WordVocabulary
+from po3d_ppl.language.seq2seq.vocab import TargetVocabulary, WordVocabulary, ngram_tensor_rows
 from po3d_ppl.language.tokens import program_to_tokens
 from po3d_ppl.language.typecheck import check_program
 
@@ -41,6 +41,13 @@ class TrainConfig:
     constrained_loss: bool = True
     #: Stop after this many optimiser steps (tests use a handful); None trains all epochs.
     max_steps: int | None = None
+    #: Character n-gram hash buckets of the subword input (0: words only).
+    ngram_buckets: int = 0
+    #: Of the words dropped to ``<unk>``, the share that keeps its n-grams (an unseen word still has its letters);
+    #: the rest lose both, as words do when the unknown-word mechanism is switched off.
+    keep_ngrams: float = 0.7
+    #: Stop after this many seconds of training (the budget); None: no limit.
+    max_seconds: float | None = None
 
 
 @dataclass
@@ -61,6 +68,16 @@ class Trained:
     root_types: tuple[str, ...]
     max_len: int
     history: list[dict] = field(default_factory=list)
+    #: The confidence calibration (model_io.Calibration) once fitted.
+    calibration: object | None = None
+
+
+def ngram_table(words: WordVocabulary, buckets: int) -> torch.Tensor:
+    """``[V, K]`` n-gram ids of every vocabulary word (padding and ``<unk>`` have none)."""
+    rows = ngram_tensor_rows(["", "", *words.words[2:]], buckets) if buckets else [[0]] * len(words)
+    table = torch.tensor(rows, dtype=torch.long)
+    table[:2] = 0
+    return table
 
 
 def encode_questions(examples: Sequence[Example], words: WordVocabulary) -> tuple[torch.Tensor, torch.Tensor]:
@@ -126,7 +143,9 @@ def train_parser(train: Sequence[Example], config: TrainConfig, registry: Operat
     data = encode_examples(train, words, target_ids, automaton)
     masks = torch.from_numpy(automaton.mask_table()).to(device)
 
-    model_config = ParserConfig(len(words), len(targets), config.embed, config.hidden, config.dropout)
+    model_config = ParserConfig(len(words), len(targets), config.embed, config.hidden, config.dropout,
+                                config.ngram_buckets)
+    table = ngram_table(words, config.ngram_buckets)
     model = Seq2SeqParser(model_config).to(device)
     generator = torch.Generator().manual_seed(config.seed)
     model.reset_parameters(generator)
@@ -141,6 +160,9 @@ def train_parser(train: Sequence[Example], config: TrainConfig, registry: Operat
     loss_fn = nn.CrossEntropyLoss(ignore_index=-100)
     trained = Trained(model, words, targets, root_types, automaton.max_len)
     best_state, best_accuracy, step = None, -1.0, 0
+    import time
+
+    started = time.perf_counter()
     with torch.random.fork_rng(devices=[]):
         torch.manual_seed(config.seed)
         for epoch in range(config.epochs):
@@ -148,18 +170,26 @@ def train_parser(train: Sequence[Example], config: TrainConfig, registry: Operat
             order = rng.permutation(n)
             running = 0.0
             for start in range(0, n, config.batch_size):
-                if step >= total:
+                if step >= total or (config.max_seconds is not None
+                                     and time.perf_counter() - started > config.max_seconds):
+                    total = step
                     break
                 index = torch.from_numpy(order[start:start + config.batch_size])
                 length = int(data.lengths[index].max())
                 batch_words = data.words[index, :length]
+                batch_ngrams = table[batch_words] if config.ngram_buckets else None
                 if config.word_dropout > 0:
                     drop = torch.from_numpy(rng.random(tuple(batch_words.shape)) < config.word_dropout)
-                    batch_words = torch.where(drop & (batch_words > 0), torch.ones_like(batch_words), batch_words)
+                    drop &= batch_words > 0
+                    if batch_ngrams is not None:
+                        lose = drop & torch.from_numpy(rng.random(tuple(batch_words.shape)) >= config.keep_ngrams)
+                        batch_ngrams = batch_ngrams.masked_fill(lose[..., None], 0)
+                    batch_words = torch.where(drop, torch.ones_like(batch_words), batch_words)
                 batch_targets = data.targets[index]
                 keep = int((batch_targets >= 0).sum(dim=1).max())
                 batch_targets = batch_targets[:, :keep].to(device)
-                logits = model(batch_words.to(device), data.lengths[index], _decoder_inputs(batch_targets))
+                logits = model(batch_words.to(device), data.lengths[index], _decoder_inputs(batch_targets),
+                               None if batch_ngrams is None else batch_ngrams.to(device))
                 if config.constrained_loss:
                     allowed = masks[data.mask_ids[index, :keep].to(device)]
                     logits = logits.masked_fill(~allowed, -1e9)
@@ -174,8 +204,9 @@ def train_parser(train: Sequence[Example], config: TrainConfig, registry: Operat
                 running += value
                 if progress:
                     progress(step, total, {"epoch": epoch + 1, "loss": value})
-            record = {"epoch": epoch + 1, "steps": step,
-                      "train_loss": running / max(1, min(steps_per_epoch, step))}
+            done_steps = step - epoch * steps_per_epoch if step < (epoch + 1) * steps_per_epoch else steps_per_epoch
+            record = {"epoch": epoch + 1, "steps": step, "seconds": round(time.perf_counter() - started, 1),
+                      "train_loss": running / max(1, done_steps)}
             if validation:
                 record["val_exact_match"] = evaluate(trained, validation, registry)["exact_match"]
                 if record["val_exact_match"] > best_accuracy:
@@ -240,4 +271,7 @@ def evaluate(trained: Trained, examples: Sequence[Example], registry: OperationR
 def _greedy(trained: Trained, automaton: TypeAutomaton, batch: Sequence[Example]) -> list[list[int]]:
     device = next(trained.model.parameters()).device
     words, lengths = encode_questions(batch, trained.words)
-    return greedy_batch(trained.model, automaton, words.to(device), lengths)
+    ngrams = None
+    if trained.model.config.ngram_buckets:
+        ngrams = ngram_table(trained.words, trained.model.config.ngram_buckets)[words].to(device)
+    return greedy_batch(trained.model, automaton, words.to(device), lengths, ngrams=ngrams)

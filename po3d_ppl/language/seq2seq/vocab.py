@@ -14,8 +14,9 @@ respells imported programs).
 from __future__ import annotations
 
 import re
+import zlib
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from po3d_ppl import ontology
 from po3d_ppl.catalogue import OperationRegistry, value_vocabulary
@@ -31,14 +32,39 @@ def tokenize(question: str) -> list[str]:
     return _WORD.findall(question.lower())
 
 
+#: Longest n-gram list per word (longer words keep their first ones).
+MAX_NGRAMS = 32
+
+
+def word_ngrams(word: str, buckets: int, sizes: tuple[int, ...] = (3, 4, 5)) -> list[int]:
+    """Hashed character n-grams of ``<word>`` (boundary marks included) in ``1..buckets-1``; 0 is padding.
+    crc32, not ``hash``: the ids must be the same in every process."""
+    if buckets <= 1 or not word:
+        return []
+    marked = f"<{word}>"
+    grams = [marked[i:i + n] for n in sizes for i in range(len(marked) - n + 1)] or [marked]
+    return [1 + zlib.crc32(g.encode()) % (buckets - 1) for g in grams[:MAX_NGRAMS]]
+
+
+def ngram_tensor_rows(words: Sequence[str], buckets: int) -> list[list[int]]:
+    """Padded n-gram id rows, one per word."""
+    rows = [word_ngrams(w, buckets) for w in words]
+    width = max((len(r) for r in rows), default=1) or 1
+    return [r + [0] * (width - len(r)) for r in rows]
+
+
 @dataclass(frozen=True)
 class WordVocabulary:
-    """Question words -> ids; id 0 is padding, id 1 is ``<unk>``."""
+    """Question words -> ids; id 0 is padding, id 1 is ``<unk>``. ``counts`` (training frequencies) rank typo
+    corrections."""
 
     words: tuple[str, ...]
+    counts: tuple[int, ...] = field(default=())
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "_index", {w: i for i, w in enumerate(self.words)})
+        counts = self.counts or (1,) * len(self.words)
+        object.__setattr__(self, "_counts", {w: c for w, c in zip(self.words[2:], counts[2:])})
 
     @classmethod
     def build(cls, questions: Iterable[str], min_count: int = 1) -> WordVocabulary:
@@ -47,7 +73,15 @@ class WordVocabulary:
             for word in tokenize(question):
                 counts[word] = counts.get(word, 0) + 1
         kept = sorted(w for w, c in counts.items() if c >= min_count)
-        return cls((PAD, UNK, *kept))
+        return cls((PAD, UNK, *kept), (0, 0, *(counts[w] for w in kept)))
+
+    def frequencies(self) -> dict[str, int]:
+        """Known word -> training count."""
+        return self._counts
+
+    def ids(self, words: Sequence[str]) -> list[int]:
+        """Ids of already tokenised words (unknown -> ``<unk>``)."""
+        return [self._index.get(w, 1) for w in words]
 
     def encode(self, question: str) -> tuple[list[int], list[str]]:
         """Word ids of ``question`` and the words that were not in the vocabulary (in order of appearance)."""

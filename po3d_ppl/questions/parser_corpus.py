@@ -1,0 +1,200 @@
+"""The question parser's training corpus: every template family instantiated without a scene, in many phrasings.
+
+The parser needs (question, program) pairs that cover the language, not answers, so rendering scenes is
+unnecessary: each family's params are drawn at random (respecting ``NULL`` / ``NOT-NULL`` / ``NOT_ALL_NULL`` /
+``NEQ``, with part names drawn from the parts of the object's shape when the family names one), the shorthands
+are expanded into concrete filters exactly as the generator expands them (one filter per non-null slot, in
+side-input order), and the question is written either from the family's template text (``fill_text``: our
+templates as a dataset build says them) or by the program realiser (:mod:`po3d_ppl.questions.realise`: many
+phrasings composed from the program). Redundant descriptions (more attributes than needed, as the public generator
+keeps some) are drawn with probability ``redundant``.
+
+Families: the dataset template files (Super-CLEVR-3D's 61, our core and height/depth) and the 90 CLEVR-core
+families of ``templates/clevr/``. Deterministic from ``seed``; a different seed gives an unseen sample of the same
+distribution (the in-distribution test).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from po3d_ppl import ontology
+from po3d_ppl.language.json_io import program_from_json
+from po3d_ppl.language.seq2seq.data import Example, canonical_targets
+from po3d_ppl.questions.realise import Realiser, Unrealisable
+from po3d_ppl.questions.template_format import (
+    FILTER_KINDS,
+    OBJECT_SLOTS,
+    PART_SLOTS,
+    Template,
+    load_template_file,
+    load_template_folder,
+    template_files,
+)
+from po3d_ppl.questions.verbalise import fill_text
+
+#: Probability that an optional filter slot of each type is filled (minimal descriptions name one or two).
+FILL = {"Shape": 0.65, "Color": 0.45, "Size": 0.3, "Material": 0.3, "Pose": 0.2, "Partname": 0.85}
+#: Part names a shape's objects have (canonical values and their super-part names).
+_PARTS_OF_CATEGORY = {
+    cat: tuple(sorted({v for s, parts in ontology.PARTS.items() if ontology.CATEGORY_OF[s] == cat for p in parts
+                       for v in (ontology.canonical_part_name(p), ontology.super_part_name(p))
+                       if v in ontology.CANONICAL_PARTNAME_VALUES}))
+    for cat in ontology.CATEGORIES
+}
+
+
+@dataclass(frozen=True)
+class CorpusConfig:
+    seed: int = 0
+    #: Share of questions written from the template text (the rest by the realiser).
+    template_text: float = 0.35
+    #: Share of questions with redundant descriptions.
+    redundant: float = 0.15
+
+
+def corpus_families() -> list[Template]:
+    """Every family the corpus draws from."""
+    families = [t for f in template_files() for t in load_template_file(f)]
+    for templates in load_template_folder("clevr").values():
+        families.extend(templates)
+    return families
+
+
+def family_group(template: Template) -> str:
+    """``parts``, ``pose``, ``occlusion``, ``occlusion_by``, ``core``, ``height_depth``, ``clevr/zero_hop`` ..."""
+    return template.filename.removesuffix(".json")
+
+
+def _slot_params(template: Template) -> tuple[set[str], set[str]]:
+    """Params that sit in filter slots (may be null) and params every program needs (concrete values)."""
+    slots, needed = set(), set()
+    for node in template.nodes:
+        side = node.get("side_inputs", [])
+        if node["type"] in FILTER_KINDS:
+            if node["type"].startswith("relate_filter"):
+                needed.add(side[0])
+                side = side[1:]
+            slots.update(side)
+        else:
+            needed.update(side)
+    return slots, needed
+
+
+def draw_assignment(template: Template, rng: np.random.Generator, redundant: bool) -> dict[str, str | None]:
+    """Random param values for ``template`` that satisfy its value constraints (not its scene constraints)."""
+    slots, needed = _slot_params(template)
+    nulls = template.null_params()
+    not_null = {p for c in template.constraints if c.type == "NOT-NULL" for p in c.params}
+    groups = [c.params for c in template.constraints if c.type == "NOT_ALL_NULL"]
+    neq = [c.params for c in template.constraints if c.type == "NEQ"]
+    for _ in range(100):
+        assign: dict[str, str | None] = {}
+        shapes = []
+        for name, ptype in template.param_types.items():
+            if ptype == "Partname":
+                continue
+            if name in nulls:
+                assign[name] = None
+                continue
+            fill = FILL.get(ptype, 1.0) if name in slots and name not in not_null else 1.0
+            if redundant:
+                fill = 1 - (1 - fill) * 0.35
+            if name in needed or float(rng.random()) < fill:
+                values = template.param_values[name]
+                assign[name] = values[int(rng.integers(len(values)))]
+                if ptype == "Shape":
+                    shapes.append(assign[name])
+            else:
+                assign[name] = None
+        for name, ptype in template.param_types.items():
+            if ptype != "Partname":
+                continue
+            if name in nulls:
+                assign[name] = None
+                continue
+            fill = FILL["Partname"] if name in slots and name not in not_null else 1.0
+            if name in needed or float(rng.random()) < fill:
+                pool = ontology.CANONICAL_PARTNAME_VALUES
+                if shapes and float(rng.random()) < 0.85:
+                    shape = shapes[0]
+                    pool = _PARTS_OF_CATEGORY[shape if shape in ontology.CATEGORIES else ontology.CATEGORY_OF[shape]]
+                assign[name] = pool[int(rng.integers(len(pool)))]
+            else:
+                assign[name] = None
+        if any(all(assign.get(p) is None for p in g) for g in groups):
+            continue
+        if any(assign.get(a) is not None and assign.get(a) == assign.get(b) for a, b in neq):
+            continue
+        if any(_all_null_part_key(node, assign) for node in template.nodes):
+            continue
+        return assign
+    raise ValueError(f"{template.name}: no assignment satisfies the constraints")
+
+
+def _all_null_part_key(node: dict, assign: dict) -> bool:
+    side = node.get("side_inputs", [])
+    return node["type"] in FILTER_KINDS and node["type"].startswith("partfilter") and bool(side) and all(
+        assign.get(p) is None for p in side)
+
+
+def expand(template: Template, assign: dict[str, str | None]) -> list[dict]:
+    """The public node list of the program ``template`` gives for ``assign`` (the generator's expansion)."""
+    out: list[dict] = []
+    where: list[int] = []
+    for node in template.nodes:
+        kind, side = node["type"], node.get("side_inputs", [])
+        inputs = [where[i] for i in node.get("inputs", [])]
+        if kind in FILTER_KINDS:
+            _, aggregate = FILTER_KINDS[kind]
+            prev = inputs[0]
+            if kind.startswith("relate_filter"):
+                out.append({"type": "relate", "inputs": [prev], "value_inputs": [assign[side[0]]]})
+                prev = len(out) - 1
+                side = side[1:]
+            slots = PART_SLOTS if kind.startswith("partfilter") else OBJECT_SLOTS
+            for p in side:
+                if assign.get(p) is not None:
+                    out.append({"type": slots[template.param_types[p]], "inputs": [prev],
+                                "value_inputs": [assign[p]]})
+                    prev = len(out) - 1
+            if aggregate is not None:
+                out.append({"type": aggregate, "inputs": [prev], "value_inputs": []})
+                prev = len(out) - 1
+            where.append(prev)
+        else:
+            out.append({"type": kind, "inputs": inputs, "value_inputs": [assign[s] for s in side]})
+            where.append(len(out) - 1)
+    return out
+
+
+def generate_corpus(count: int, config: CorpusConfig = CorpusConfig(),
+                    families: list[Template] | None = None) -> list[Example]:
+    """``count`` examples, families drawn uniformly (each family its share, whatever its file)."""
+    return list(iter_corpus(count, config, families))
+
+
+def iter_corpus(count: int, config: CorpusConfig = CorpusConfig(),
+                families: list[Template] | None = None) -> Iterator[Example]:
+    families = families if families is not None else corpus_families()
+    rng = np.random.default_rng(config.seed)
+    realiser = Realiser(rng)
+    made = 0
+    while made < count:
+        template = families[int(rng.integers(len(families)))]
+        assign = draw_assignment(template, rng, float(rng.random()) < config.redundant)
+        program = canonical_targets(program_from_json(expand(template, assign)))
+        question = None
+        if float(rng.random()) >= config.template_text:
+            try:
+                question = realiser.question(program)
+            except Unrealisable:
+                question = None
+        if question is None:
+            text = template.texts[int(rng.integers(len(template.texts)))]
+            question = fill_text(text, template.param_types, assign, rng)
+        made += 1
+        yield Example(question, program, family_group(template), f"{template.filename}:{template.index}")

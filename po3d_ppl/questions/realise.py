@@ -1,0 +1,593 @@
+"""Program -> English: many phrasings of one program, composed from the program's own structure.
+
+The question parser learnt our template wording because every family had two or three fixed texts. This realiser
+writes a question for any program built from the template operations, choosing at random among the ways people
+(and the public CLEVR / Super-CLEVR files) say each step: query frames ("What is the colour of ...", "... is what
+colour?"), noun phrases (adjectives before the noun, or "that is red and metal" after it), relative clauses
+("that faces left", "facing to the left pose"), possessives ("the bus's left mirror"), "whose" constructions
+("the car whose back wheel is occluded"), CLEVR's "There is a ...; how many ... are behind it?", comparisons
+("more / fewer / as many", "greater / less than"), and every spelling of shapes and parts from
+:mod:`po3d_ppl.language.lexicon`. Unsupported structures raise :class:`Unrealisable`, so the caller falls back to
+the template text.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from po3d_ppl import ontology
+from po3d_ppl.language import lexicon as lx
+from po3d_ppl.language.ast import Node, Program
+
+
+class Unrealisable(ValueError):
+    """The realiser has no phrasing for this program structure."""
+
+
+@dataclass
+class _Obj:
+    """A description of a set of objects (or of one object): what filters and relations say about it."""
+
+    attrs: dict[str, str] = field(default_factory=dict)  # slot -> value
+    shape: str | None = None
+    posts: list[tuple[str, str]] = field(default_factory=list)  # (singular clause, plural clause)
+    occluded: bool = False
+    other: bool = False
+    anchor: _Obj | None = None  # the object of the last relation (for "There is a ...; ... it")
+    anchor_ref: str | None = None  # how the first post says the anchor
+    union: tuple[_Obj, _Obj] | None = None
+    hoist: bool = False
+
+
+@dataclass
+class _Part:
+    attrs: dict[str, str] = field(default_factory=dict)
+    name: str | None = None
+    occluded: bool = False
+    owner: _Obj | None = None
+    owner_unique: bool = False
+    posts: list[tuple[str, str]] = field(default_factory=list)
+
+
+_OBJECT_ATTR = {"filter_size": "size", "filter_color": "color", "filter_material": "material"}
+_PART_ATTR = {"partfilter_size": "size", "partfilter_color": "color", "partfilter_material": "material"}
+_ATTR_NAME = {"size": ("size",), "color": ("color", "colour"), "material": ("material",),
+              "shape": ("shape",)}
+
+
+class Realiser:
+    """Writes questions for programs; one instance per random stream."""
+
+    def __init__(self, rng: np.random.Generator):
+        self.rng = rng
+
+    # ----- choices ---------------------------------------------------------------------------------------------
+    def pick(self, options):
+        return options[int(self.rng.integers(len(options)))] if len(options) > 1 else options[0]
+
+    def chance(self, p: float) -> bool:
+        return float(self.rng.random()) < p
+
+    # ----- entry -----------------------------------------------------------------------------------------------
+    def question(self, program: Program) -> str:
+        self.program = program
+        text = self._top(program[len(program) - 1])
+        return _finish(text)
+
+    def _node(self, index: int) -> Node:
+        return self.program[index]
+
+    def _in(self, node: Node, k: int = 0) -> Node:
+        return self.program[node.inputs[k]]
+
+    # ----- object sets -----------------------------------------------------------------------------------------
+    def obj(self, node: Node) -> _Obj:
+        f = node.function
+        if f == "scene":
+            return _Obj()
+        if f == "unique":
+            return self.obj(self._in(node))
+        if f in _OBJECT_ATTR:
+            d = self.obj(self._in(node))
+            d.attrs[_OBJECT_ATTR[f]] = node.value
+            return d
+        if f == "filter_shape":
+            d = self.obj(self._in(node))
+            d.shape = node.value
+            return d
+        if f == "filter_pose":
+            d = self.obj(self._in(node))
+            d.posts.append(self._pose_clause(node.value))
+            return d
+        if f == "filter_occludee":
+            d = self.obj(self._in(node))
+            if self.chance(0.5):
+                d.occluded = True
+            else:
+                d.posts.append(self.pick(_OCCLUDED_CLAUSES))
+            return d
+        if f == "relate":
+            anchor = self.obj(self._in(node))
+            words = self.pick(lx.RELATION_FORMS[node.value])
+            ref = self.np(anchor, "def")
+            return _Obj(posts=[self._bare_or_clause(words, ref)], anchor=anchor, anchor_ref=ref)
+        if f.startswith("same_") and f != "same_pose":
+            attr = f.removeprefix("same_")
+            anchor = self.obj(self._in(node))
+            name = self.pick(_ATTR_NAME[attr])
+            ref = self.np(anchor, "def")
+            if attr == "material" and self.chance(0.3):
+                return _Obj(posts=[(f"made of the same material as {ref}", f"made of the same material as {ref}")],
+                            other=self.chance(0.6), anchor=anchor, anchor_ref=ref)
+            sing, plur = self.pick(((f"that has the same {name} as {ref}", f"that have the same {name} as {ref}"),
+                                    (f"with the same {name} as {ref}",) * 2,
+                                    (f"that is the same {name} as {ref}", f"that are the same {name} as {ref}"),
+                                    (f"of the same {name} as {ref}",) * 2,
+                                    (f"sharing the {name} of {ref}",) * 2))
+            return _Obj(posts=[(sing, plur)], other=self.chance(0.6), anchor=anchor, anchor_ref=ref)
+        if f in ("same_pose", "opposite_pose", "vertical_pose"):
+            anchor = self.obj(self._in(node))
+            ref = self.np(anchor, "def")
+            return _Obj(posts=[self.pick(_POSE_RELATIONS[f])(ref)], other=f == "same_pose" and self.chance(0.3),
+                        anchor=anchor, anchor_ref=ref)
+        if f == "relate_occluding":  # objects the anchor occludes
+            anchor = self.obj(self._in(node))
+            ref = self.np(anchor, "def")
+            return _Obj(posts=[self.pick(_OCCLUDED_BY)(ref)], anchor=anchor, anchor_ref=ref)
+        if f == "relate_occluded":  # objects that occlude the anchor
+            anchor = self.obj(self._in(node))
+            ref = self.np(anchor, "def")
+            return _Obj(posts=[self.pick(_OCCLUDING)(ref)], anchor=anchor, anchor_ref=ref)
+        if f == "relate_part_occluded":
+            part = self.part(self._in(node))
+            ref = self.part_np(part, "def")
+            return _Obj(posts=[self.pick(_OCCLUDING)(ref)])
+        if f == "part2object":
+            return self._owner_of(self._in(node))
+        if f == "union":
+            return _Obj(union=(self.obj(self._in(node, 0)), self.obj(self._in(node, 1))))
+        if f == "intersect":
+            a, b = self.obj(self._in(node, 0)), self.obj(self._in(node, 1))
+            if a.attrs or a.shape or b.attrs or b.shape or a.union or b.union:
+                raise Unrealisable("intersect of filtered sets")
+            posts = a.posts + b.posts
+            if len(posts) == 2 and self.chance(0.6):
+                (s1, p1), (s2, p2) = posts
+                both = self.pick(("both ", ""))
+                posts = [(f"that is {both}{s1.removeprefix('that is ')} and {s2.removeprefix('that is ')}",
+                          f"that are {both}{p1.removeprefix('that are ')} and {p2.removeprefix('that are ')}")]
+                posts = [(_clean_is(posts[0][0]), _clean_are(posts[0][1]))]
+            return _Obj(posts=posts, other=a.other or b.other)
+        raise Unrealisable(f"no phrasing for {f} as an object set")
+
+    def _bare_or_clause(self, words: str, ref: str) -> tuple[str, str]:
+        if self.chance(0.7):
+            return (f"{words} {ref}", f"{words} {ref}")
+        return (f"that is {words} {ref}", f"that are {words} {ref}")
+
+    def _pose_clause(self, pose: str) -> tuple[str, str]:
+        words = self.pick(lx.POSE_FORMS[pose])
+        bare = pose.removesuffix("_pose")
+        return self.pick((
+            (f"that faces {words}", f"that face {words}"),
+            (f"facing {words}",) * 2,
+            (f"which faces {words}", f"which face {words}"),
+            (f"that is facing {words}", f"that are facing {words}"),
+            (f"that faces to the {bare} pose", f"that face to the {bare} pose"),
+            (f"with a {bare} pose", f"with a {bare} pose"),
+            (f"whose pose is {bare}", f"whose pose is {bare}"),
+            (f"that faces the {bare} direction", f"that face the {bare} direction"),
+            (f"pointing {words}",) * 2,
+        ))
+
+    def _owner_of(self, partset: Node) -> _Obj:
+        """Objects owning parts: "the car that has a red wheel" / "the car whose wheel is occluded"."""
+        part = self.part(partset)
+        owner = part.owner if part.owner is not None else _Obj()
+        part.owner = None
+        d = _Obj(attrs=dict(owner.attrs), shape=owner.shape, posts=list(owner.posts), occluded=owner.occluded)
+        adjectives = self._part_adjectives(part)
+        noun = self._part_noun(part, d.shape)
+        if part.posts and not adjectives:  # "whose wheel is occluded by the bus"
+            clause = part.posts[0][0].removeprefix("that ")
+            d.posts.append((f"whose {noun} {clause}", f"whose {noun} {clause}"))
+            return d
+        if len(part.attrs) + part.occluded == 1 and part.name and self.chance(0.5):
+            value = "occluded" if part.occluded else self._attr_words(next(iter(part.attrs.items())))
+            if part.occluded:
+                value = self.pick(("occluded", "hidden", "partially occluded", "blocked from view"))
+            d.posts.append((f"whose {noun} is {value}", f"whose {noun} is {value}"))
+            return d
+        phrase = " ".join([*adjectives, noun])
+        if part.posts:
+            phrase += " " + part.posts[0][0]
+        art = "a"
+        verb = self.pick((("that has", "that have"), ("with", "with"), ("which has", "which have")))
+        d.posts.append((f"{verb[0]} {art} {phrase}", f"{verb[1]} {art} {phrase}"))
+        return d
+
+    # ----- part sets -------------------------------------------------------------------------------------------
+    def part(self, node: Node) -> _Part:
+        f = node.function
+        if f == "unique":
+            return self.part(self._in(node))
+        if f in ("object2part", "object2part_all"):
+            source = self._in(node)
+            owner = self.obj(source)
+            return _Part(owner=owner, owner_unique=source.function == "unique")
+        if f in _PART_ATTR:
+            d = self.part(self._in(node))
+            d.attrs[_PART_ATTR[f]] = node.value
+            return d
+        if f == "partfilter_partname":
+            d = self.part(self._in(node))
+            d.name = node.value
+            return d
+        if f == "partfilter_occludee":
+            d = self.part(self._in(node))
+            d.occluded = True
+            return d
+        if f == "relate_occluding_part":
+            anchor = self.obj(self._in(node))
+            ref = self.np(anchor, "def")
+            return _Part(posts=[self.pick(_OCCLUDED_BY)(ref)])
+        raise Unrealisable(f"no phrasing for {f} as a part set")
+
+    # ----- noun phrases ----------------------------------------------------------------------------------------
+    def _attr_words(self, item: tuple[str, str]) -> str:
+        return self.pick(lx.ATTRIBUTE_FORMS[item[1]])
+
+    def _adjectives(self, attrs: dict[str, str]) -> list[str]:
+        return [self._attr_words((k, attrs[k])) for k in ("size", "color", "material") if k in attrs]
+
+    def _part_adjectives(self, part: _Part) -> list[str]:
+        words = self._adjectives(part.attrs)
+        if part.occluded:
+            words.insert(0, self.pick(("occluded", "hidden", "partially occluded")))
+        return words
+
+    def _part_noun(self, part: _Part, owner_shape: str | None) -> str:
+        if part.name is None:
+            return "part"
+        category = _category(owner_shape)
+        forms = lx.part_forms_for_category(part.name, category) if category else lx.part_forms(part.name)
+        return forms[0] if self.chance(0.5) else self.pick(forms)
+
+    def _noun(self, d: _Obj, plural: bool) -> str:
+        if d.shape is None:
+            return self.pick(lx.THING_PLURALS if plural else lx.THING_FORMS)
+        form = self.pick(lx.shape_forms(d.shape)) if self.chance(0.6) else lx.shape_forms(d.shape)[0]
+        return self.pick(lx.plural_forms(form)) if plural else form
+
+    def np(self, d: _Obj, kind: str) -> str:
+        """``kind``: "def" (the ...), "indef" (a ...), "plural" (... things)."""
+        if d.hoist:
+            return "it" if kind != "plural" else "them"
+        plural = kind == "plural"
+        adjectives = self._adjectives(d.attrs)
+        posts = [p[1] if plural else p[0] for p in d.posts]
+        if d.occluded:
+            if self.chance(0.5):
+                adjectives.insert(0, self.pick(("occluded", "partially occluded", "hidden")))
+            else:
+                posts.insert(0, self.pick(_OCCLUDED_CLAUSES)[1 if plural else 0])
+        noun = self._noun(d, plural)
+        if len(adjectives) >= 1 and not posts and self.chance(0.12):  # "the car that is red and metal"
+            verb = "are" if plural else "is"
+            head = f"{noun} that {verb} {_and(adjectives)}"
+        elif "material" in d.attrs and self.chance(0.1) and not posts:
+            rest = [self._attr_words((k, d.attrs[k])) for k in ("size", "color") if k in d.attrs]
+            head = " ".join([*rest, noun, "made of", self.pick(lx.ATTRIBUTE_FORMS[d.attrs["material"]])])
+        else:
+            head = " ".join([*adjectives, noun])
+        if d.other:
+            head = "other " + head
+        if posts:
+            head = head + " " + " and ".join(posts) if len(posts) < 3 else head + " " + " ".join(posts)
+        if kind == "def":
+            return "the " + head
+        if kind == "indef":
+            return "a " + head
+        return head
+
+    def part_np(self, p: _Part, kind: str) -> str:
+        adjectives = self._part_adjectives(p)
+        owner_shape = p.owner.shape if p.owner is not None else None
+        noun = self._part_noun(p, owner_shape)
+        head = " ".join([*adjectives, noun])
+        if p.posts:
+            head += " " + p.posts[0][0]
+        det = "the " if kind == "def" else "a "
+        if p.owner is None or (not p.owner.attrs and p.owner.shape is None and not p.owner.posts
+                               and not p.owner.occluded):
+            if p.owner is not None and self.chance(0.3):
+                return f"{det}{head} of {self.pick(('a', 'some', 'any'))} {self._noun(p.owner, False)}"
+            return det + head
+        owner = self.np(p.owner, "def" if p.owner_unique or self.chance(0.7) else "indef")
+        style = self.rng.random()
+        if style < 0.55:
+            return f"{det}{head} of {owner}"
+        if style < 0.8 and owner.startswith("the ") and not p.owner.posts:
+            return f"{owner}'s {head}"
+        if style < 0.9:
+            return f"{det}{head} on {owner}"
+        return f"{det}{head} that belongs to {owner}"
+
+    # ----- questions -------------------------------------------------------------------------------------------
+    def _maybe_hoist(self, d: _Obj) -> str:
+        """CLEVR's "There is a red car; ..." form: describe the relation's anchor first, then say "it"."""
+        if d.anchor_ref and d.posts and self.chance(0.25) and d.posts[0][0].endswith(d.anchor_ref):
+            intro = self.np(d.anchor, "indef")
+            d.posts[0] = tuple(p[: len(p) - len(d.anchor_ref)] + "it" for p in d.posts[0])
+            return self.pick(("There is ", "There is ", "Look at ")) + intro + "; "
+        return ""
+
+    def _top(self, node: Node) -> str:
+        f = node.function
+        if f.startswith(("query_", "partquery_")):
+            return self._query(node)
+        if f in ("count", "exist"):
+            return self._count_exist(node)
+        if f.startswith("equal_") and f != "equal_integer":
+            return self._compare_attribute(node)
+        if f in ("greater_than", "less_than", "equal_integer"):
+            return self._compare_counts(node)
+        raise Unrealisable(f"no phrasing for a program ending in {f}")
+
+    def _query(self, node: Node) -> str:
+        f = node.function
+        target = self._in(node)
+        if f.startswith("partquery_"):
+            part = self.part(target)
+            attr = f.removeprefix("partquery_")
+            if attr == "partname":
+                return self._part_name_question(part)
+            if attr == "occlusion":
+                x = self.part_np(part, "def")
+                word = self.pick(("occluded", "hidden", "partially occluded", "blocked", "covered",
+                                  "occluded by something", "blocked from view"))
+                return f"Is {x} {word}?"
+            x = self.part_np(part, "def")
+            return self._attribute_question(attr, x)
+        d = self.obj(target)
+        intro = self._maybe_hoist(d)
+        x = self.np(d, "def")
+        attr = f.removeprefix("query_")
+        if attr == "pose":
+            return intro + self.pick(_POSE_QUESTIONS)(x)
+        return intro + self._attribute_question(attr, x)
+
+    def _attribute_question(self, attr: str, x: str) -> str:
+        name = self.pick(_ATTR_NAME[attr])
+        frames = {
+            "color": [f"What {name} is {x}?", f"What is the {name} of {x}?", f"Which {name} is {x}?",
+                      f"What {name} does {x} have?", f"{x} is what {name}?", f"Tell me the {name} of {x}.",
+                      f"What is the {name} of {x}?", f"{x} has what {name}?"],
+            "size": [f"What size is {x}?", f"How big is {x}?", f"What is the size of {x}?", f"{x} is what size?",
+                     f"Is {x} large or small?", f"What size does {x} have?", f"Tell me the size of {x}."],
+            "material": [f"What material is {x}?", f"What is {x} made of?", f"What is the material of {x}?",
+                         f"{x} is made of what material?", f"Is {x} metal or rubber?",
+                         f"What is {x} made from?", f"Which material is {x}?"],
+            "shape": [f"What shape is {x}?", f"What type of vehicle is {x}?", f"What kind of object is {x}?",
+                      f"What is the shape of {x}?", f"What sort of vehicle is {x}?", f"{x} is what type of vehicle?",
+                      f"What kind of vehicle is {x}?", f"What type of object is {x}?"],
+        }[attr]
+        return self.pick(frames)
+
+    def _part_name_question(self, part: _Part) -> str:
+        owner = part.owner
+        if (owner is not None and part.name is None and (part.attrs or part.occluded) and not part.posts
+                and (owner.attrs or owner.shape or owner.posts) and self.chance(0.5)):
+            o = self.np(owner, "def")
+            state = _and([*(self._adjectives(part.attrs))] + (["occluded"] if part.occluded else []))
+            return self.pick((f"Which part of {o} is {state}?", f"What part of {o} is {state}?",
+                              f"Which of the parts of {o} is {state}?"))
+        x = self.part_np(part, "def")
+        return self.pick((f"What is the name of {x}?", f"What is {x} called?", f"What do you call {x}?",
+                          f"What is the name of {x}?", f"Name {x}.", f"Which part is {x}?",
+                          f"What part is {x}?"))
+
+    def _count_exist(self, node: Node) -> str:
+        target = self._in(node)
+        if target.function in ("partfilter_partname", "partfilter_color", "partfilter_material", "partfilter_size",
+                               "partfilter_occludee", "object2part", "object2part_all", "relate_occluding_part"):
+            part = self.part(target)
+            x = self.part_np(part, "indef")
+            plural_x = self.part_np(part, "def").removeprefix("the ")
+            if node.function == "count":
+                return self.pick((f"How many {_pluralise_part(plural_x)} are there?",))
+            return self.pick((f"Is there {x}?", f"Does {x.removeprefix('a ')} exist?"))
+        d = self.obj(target)
+        if d.union is not None:
+            a, b = d.union
+            pa, pb = self.np(a, "plural"), self.np(b, "plural")
+            if node.function == "count":
+                return self.pick((f"How many things are either {pa} or {pb}?", f"How many {pa} or {pb} are there?",
+                                  f"What number of objects are {pa} or {pb}?",
+                                  f"What is the total number of {pa} and {pb}?",
+                                  f"How many objects are {pa} or {pb}?"))
+            return self.pick((f"Are there any {pa} or {pb}?", (f"Is there anything that is either a "
+                              f"{self.np(a, 'indef').removeprefix('a ')} or a {self.np(b, 'indef').removeprefix('a ')}?")))
+        intro = self._maybe_hoist(d)
+        predicative = self._predicative(d)
+        if node.function == "count":
+            if predicative is not None and self.chance(0.6):
+                subject, pred = predicative
+                return intro + self.pick((f"How many {subject} are {pred}?", f"What number of {subject} are {pred}?"))
+            x = self.np(d, "plural")
+            if d.other and d.shape is None and not d.attrs and self.chance(0.5):
+                return intro + self.pick((f"How many {x} are there?", f"What number of {x} are there?"))
+            return intro + self.pick((f"How many {x} are there?", f"What number of {x} are there?",
+                                      f"How many {x} are in the scene?", f"Count the {x}.",
+                                      f"How many {x} are there in the image?", f"What is the number of {x}?",
+                                      f"How many {x} can you see?", f"How many {x} do you see?",
+                                      f"How many {x} are in the picture?", f"How many {x}?"))
+        if predicative is not None and self.chance(0.5):
+            subject, pred = predicative
+            single = self.np(_strip_posts(d), "indef")
+            return intro + self.pick((f"Are there any {subject} {pred}?", f"Is there {single} {pred}?",
+                                      f"Are any {subject} {pred}?"))
+        if d.other and d.shape is None and not d.attrs and d.posts and self.chance(0.5):
+            post = d.posts[0][0]
+            return intro + self.pick((f"Is there anything else {post}?", f"Is there another thing {post}?",
+                                      f"Is there any other thing {post}?", (f"Are there any other things "
+                                      f"{d.posts[0][1]}?"), f"Is there anything else {post}?"))
+        x = self.np(d, "plural")
+        single = self.np(d, "indef")
+        return intro + self.pick((f"Are there any {x}?", f"Is there {single}?", f"Do you see any {x}?",
+                                  f"Does the scene contain {single}?", f"Are any {x} visible?",
+                                  f"Is there any {self.np(d, 'indef').removeprefix('a ')}?",
+                                  f"Are there {x}?", f"Is there {single} in the scene?"))
+
+    def _predicative(self, d: _Obj) -> tuple[str, str] | None:
+        """(plural subject, predicate) for "How many cars are behind the bus?" when the last relation reads
+        predicatively."""
+        if not d.posts:
+            return None
+        sing, plur = d.posts[-1]
+        for prefix in ("that are ", "that face ", "that have "):
+            if plur.startswith(prefix):
+                verb = prefix.split()[1]
+                pred = plur.removeprefix(prefix)
+                rest = _Obj(attrs=d.attrs, shape=d.shape, posts=d.posts[:-1], occluded=d.occluded, other=d.other)
+                if verb == "are":
+                    return self.np(rest, "plural"), pred
+                return None
+        if plur == sing and not plur.startswith(("with", "facing", "of", "sharing", "whose", "pointing", "made")):
+            rest = _Obj(attrs=d.attrs, shape=d.shape, posts=d.posts[:-1], occluded=d.occluded, other=d.other)
+            return self.np(rest, "plural"), plur
+        return None
+
+    def _compare_attribute(self, node: Node) -> str:
+        attr = node.function.removeprefix("equal_")
+        a, b = self._in(node, 0), self._in(node, 1)
+        if not (a.function.startswith("query_") and b.function.startswith("query_")):
+            raise Unrealisable("attribute comparison of non-queries")
+        x, y = self.np(self.obj(self._in(a)), "def"), self.np(self.obj(self._in(b)), "def")
+        name = self.pick(_ATTR_NAME[attr])
+        frames = [f"Do {x} and {y} have the same {name}?", f"Is {x} the same {name} as {y}?",
+                  f"Does {x} have the same {name} as {y}?", f"Are {x} and {y} the same {name}?",
+                  f"Is the {name} of {x} the same as {y}?", f"Is the {name} of {x} the same as that of {y}?",
+                  f"Do {x} and {y} share the same {name}?", f"Do {x} and {y} have an equal {name}?"]
+        if attr == "material":
+            frames += [f"Are {x} and {y} made of the same material?", f"Is {x} made of the same material as {y}?"]
+        if attr == "shape":
+            frames += [f"Are {x} and {y} the same type of vehicle?", f"Is {x} the same kind of vehicle as {y}?"]
+        return self.pick(frames)
+
+    def _compare_counts(self, node: Node) -> str:
+        a, b = self._in(node, 0), self._in(node, 1)
+        if a.function != "count" or b.function != "count":
+            raise Unrealisable("count comparison of non-counts")
+        x, y = self.np(self.obj(self._in(a)), "plural"), self.np(self.obj(self._in(b)), "plural")
+        f = node.function
+        if f == "greater_than":
+            more = self.pick(("more", "greater", "bigger", "larger", "higher"))
+            frames = [f"Are there more {x} than {y}?", (f"Is the number of {x} {more if more != 'more' else 'greater'}"
+                      f" than the number of {y}?"), f"Do {x} outnumber {y}?", f"Are there more {x} than {y}?",
+                      f"Is the number of {x} larger than that of {y}?", f"Are {x} more numerous than {y}?",
+                      f"Is the count of {x} greater than the count of {y}?"]
+        elif f == "less_than":
+            less = self.pick(("less", "smaller", "fewer", "lower"))
+            frames = [f"Are there fewer {x} than {y}?", f"Are there less {x} than {y}?",
+                      f"Is the number of {x} {less} than the number of {y}?",
+                      f"Is the number of {x} smaller than that of {y}?", f"Are {x} fewer than {y}?",
+                      f"Do {y} outnumber {x}?" if False else f"Are there fewer {x} than {y}?",
+                      f"Is the count of {x} less than the count of {y}?"]
+        else:
+            frames = [f"Are there the same number of {x} and {y}?", f"Are there as many {x} as {y}?",
+                      f"Is the number of {x} the same as the number of {y}?",
+                      f"Is the number of {x} equal to the number of {y}?", f"Are there an equal number of {x} and {y}?",
+                      f"Is the number of {x} equal to that of {y}?", f"Do {x} and {y} have the same count?"]
+        return self.pick(frames)
+
+
+def _and(words: list[str]) -> str:
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
+
+
+def _clean_is(text: str) -> str:
+    return text.replace(" and that is ", " and ")
+
+
+def _clean_are(text: str) -> str:
+    return text.replace(" and that are ", " and ")
+
+
+def _strip_posts(d: _Obj) -> _Obj:
+    return _Obj(attrs=d.attrs, shape=d.shape, posts=d.posts[:-1], occluded=d.occluded, other=d.other)
+
+
+def _pluralise_part(phrase: str) -> str:
+    head, sep, tail = phrase.partition(" of ")
+    return lx.plural(head) + sep + tail
+
+
+def _category(shape: str | None) -> str | None:
+    if shape is None:
+        return None
+    return shape if shape in ontology.CATEGORIES else ontology.CATEGORY_OF.get(shape)
+
+
+_OCCLUDED_CLAUSES = (("that is occluded", "that are occluded"), ("that is partially hidden", "that are partially hidden"),
+                     ("that is blocked from view", "that are blocked from view"), ("which is occluded",
+                                                                                   "which are occluded"),
+                     ("that is partly occluded", "that are partly occluded"), ("that is hidden", "that are hidden"))
+_OCCLUDED_BY = (lambda r: (f"that is occluded by {r}", f"that are occluded by {r}"),
+                lambda r: (f"occluded by {r}",) * 2,
+                lambda r: (f"that is hidden by {r}", f"that are hidden by {r}"),
+                lambda r: (f"that is blocked by {r}", f"that are blocked by {r}"),
+                lambda r: (f"that {r} occludes", f"that {r} occludes"),
+                lambda r: (f"that is partially hidden by {r}", f"that are partially hidden by {r}"))
+_OCCLUDING = (lambda r: (f"that occludes {r}", f"that occlude {r}"),
+              lambda r: (f"that is occluding {r}", f"that are occluding {r}"),
+              lambda r: (f"that blocks {r}", f"that block {r}"),
+              lambda r: (f"that hides {r}", f"that hide {r}"),
+              lambda r: (f"occluding {r}",) * 2,
+              lambda r: (f"that blocks the view of {r}", f"that block the view of {r}"))
+_POSE_RELATIONS = {
+    "same_pose": (lambda r: (f"that faces the same direction as {r}", f"that face the same direction as {r}"),
+                  lambda r: (f"facing the same way as {r}",) * 2,
+                  lambda r: (f"that has the same pose as {r}", f"that have the same pose as {r}"),
+                  lambda r: (f"with the same direction as {r}",) * 2,
+                  lambda r: (f"pointing in the same direction as {r}",) * 2,
+                  lambda r: (f"that faces the same way as {r}", f"that face the same way as {r}")),
+    "opposite_pose": (lambda r: (f"that faces the opposite direction to {r}", f"that face the opposite direction to {r}"),
+                      lambda r: (f"facing the opposite way from {r}",) * 2,
+                      lambda r: (f"that faces the opposite direction as {r}", f"that face the opposite direction as {r}"),
+                      lambda r: (f"that has the opposite pose to {r}", f"that have the opposite pose to {r}"),
+                      lambda r: (f"with the opposite direction of {r}",) * 2,
+                      lambda r: (f"pointing the opposite way to {r}",) * 2),
+    "vertical_pose": (lambda r: (f"that faces perpendicular to {r}", f"that face perpendicular to {r}"),
+                      lambda r: (f"facing at a right angle to {r}",) * 2,
+                      lambda r: (f"that faces the vertical direction as {r}", f"that face the vertical direction as {r}"),
+                      lambda r: (f"whose direction is perpendicular to {r}",) * 2,
+                      lambda r: (f"that is perpendicular to {r}", f"that are perpendicular to {r}"),
+                      lambda r: (f"with a pose perpendicular to {r}",) * 2),
+}
+_POSE_QUESTIONS = (lambda x: f"Which direction is {x} facing?", lambda x: f"What direction does {x} face?",
+                   lambda x: f"Which way is {x} facing?", lambda x: f"What is the pose of {x}?",
+                   lambda x: f"Which way does {x} point?", lambda x: f"Where is {x} facing?",
+                   lambda x: f"In which direction is {x} pointing?", lambda x: f"What is the facing direction of {x}?",
+                   lambda x: f"Which direction does {x} face?", lambda x: f"What pose is {x} in?",
+                   lambda x: f"What direction is {x} facing?")
+
+_ARTICLE = re.compile(r"\b([Aa]) (?=(\w+))")
+_SAYS_CONSONANT = ("uti", "uni", "use", "one")
+_SAYS_VOWEL = ("suv",)
+
+
+def _finish(text: str) -> str:
+    text = re.sub(r"\s+", " ", text).strip()
+
+    def article(m: re.Match) -> str:
+        word = m.group(2).lower()
+        vowel = word[:1] in "aeiou" and not word.startswith(_SAYS_CONSONANT) or word.startswith(_SAYS_VOWEL)
+        return m.group(1) + ("n " if vowel else " ")
+
+    text = _ARTICLE.sub(article, text)
+    text = re.sub(r"; (\w)", lambda m: "; " + m.group(1).lower(), text)
+    return text[:1].upper() + text[1:]
