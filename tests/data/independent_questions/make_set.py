@@ -1609,7 +1609,7 @@ def fill_hand():
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--per-group", type=int, default=110)
+    ap.add_argument("--per-group", type=int, default=118)
     ap.add_argument("--seed", type=int, default=20240)
     ap.add_argument("--hand", action="store_true")
     a = ap.parse_args()
