@@ -54,6 +54,8 @@ def train_parser_command(
     ngram_buckets: int = typer.Option(4096, "--ngram-buckets", min=0,
                                       help="Character n-gram hash buckets of the subword input (0: words only)."),
     max_minutes: float = typer.Option(None, "--max-minutes", help="Stop training after this many minutes."),
+    word_dropout: float = typer.Option(0.02, "--word-dropout", help="Share of question words read as <unk> in "
+                                                                    "training (the model learns to cope with them)."),
     seed: int = typer.Option(0, "--seed", help="Seed for initialisation, shuffling and dropout (>= 0)."),
     epochs: int = typer.Option(6, "--epochs", min=1, help="Passes over the training split."),
     batch_size: int = typer.Option(64, "--batch-size", min=1),
@@ -109,6 +111,7 @@ def train_parser_command(
             pass
     config = TrainConfig(seed=seed, epochs=epochs, batch_size=batch_size, lr=lr, hidden=hidden, embed=embed,
                          max_steps=max_steps, constrained_loss=not unconstrained_loss, ngram_buckets=ngram_buckets,
+                         word_dropout=word_dropout,
                          max_seconds=None if max_minutes is None else 60 * max_minutes)
     console.print(f"training on {len(train)} questions, validating on {len(validation)}", highlight=False)
     start = time.perf_counter()
@@ -207,7 +210,8 @@ def _train_command(data: list[Path], config, out: Path | None, corpus: int = 0, 
         words += ["--data", str(directory)]
     if corpus:
         words += ["--corpus", str(corpus), "--corpus-seed", str(corpus_seed), "--corpus-val", str(corpus_val)]
-    words += ["--ngram-buckets", str(config.ngram_buckets), "--threads", str(threads)]
+    words += ["--ngram-buckets", str(config.ngram_buckets), "--word-dropout", str(config.word_dropout),
+              "--threads", str(threads)]
     if max_minutes is not None:
         words += ["--max-minutes", str(max_minutes)]
     words += ["--seed", str(config.seed), "--epochs", str(config.epochs), "--batch-size", str(config.batch_size),

@@ -93,7 +93,7 @@ _PART_WORD_SYNONYMS = {"license": ("license", "licence"), "back": ("back", "rear
 def _join_forms(words: str) -> set[str]:
     out = {words}
     for spaced, joined in _JOINED.items():
-        for w in out:
+        for w in tuple(out):  # a snapshot: the loop adds to ``out``
             if spaced in w:
                 out.add(w.replace(spaced, joined))
             if joined in w.split():

@@ -9,8 +9,9 @@ templates as a dataset build says them) or by the program realiser (:mod:`po3d_p
 phrasings composed from the program). Redundant descriptions (more attributes than needed, as the public generator
 keeps some) are drawn with probability ``redundant``.
 
-Families: the dataset template files (Super-CLEVR-3D's 61, our core and height/depth) and the 90 CLEVR-core
-families of ``templates/clevr/``. Deterministic from ``seed``; a different seed gives an unseen sample of the same
+Families: the dataset template files (Super-CLEVR-3D's 61, our core and height/depth), the 90 CLEVR-core
+families of ``templates/clevr/`` and the further forms of ``templates/extra/`` (object occlusion, pose and occlusion
+counts, part counts). Deterministic from ``seed``; a different seed gives an unseen sample of the same
 distribution (the in-distribution test).
 """
 
@@ -29,6 +30,7 @@ from po3d_ppl.questions.template_format import (
     FILTER_KINDS,
     OBJECT_SLOTS,
     PART_SLOTS,
+    TEMPLATE_FOLDERS,
     Template,
     load_template_file,
     load_template_folder,
@@ -59,8 +61,9 @@ class CorpusConfig:
 def corpus_families() -> list[Template]:
     """Every family the corpus draws from."""
     families = [t for f in template_files() for t in load_template_file(f)]
-    for templates in load_template_folder("clevr").values():
-        families.extend(templates)
+    for folder in TEMPLATE_FOLDERS:
+        for templates in load_template_folder(folder).values():
+            families.extend(templates)
     return families
 
 

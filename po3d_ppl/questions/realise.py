@@ -392,49 +392,51 @@ class Realiser:
 
     def _count_exist(self, node: Node) -> str:
         target = self._in(node)
+        count = node.function == "count"
         if target.function in ("partfilter_partname", "partfilter_color", "partfilter_material", "partfilter_size",
                                "partfilter_occludee", "object2part", "object2part_all", "relate_occluding_part"):
-            part = self.part(target)
-            x = self.part_np(part, "indef")
-            plural_x = self.part_np(part, "def").removeprefix("the ")
-            if node.function == "count":
-                return self.pick((f"How many {_pluralise_part(plural_x)} are there?",))
-            return self.pick((f"Is there {x}?", f"Does {x.removeprefix('a ')} exist?"))
+            return self._count_exist_parts(self.part(target), count)
         d = self.obj(target)
         if d.union is not None:
             a, b = d.union
             pa, pb = self.np(a, "plural"), self.np(b, "plural")
-            if node.function == "count":
+            if count:
                 return self.pick((f"How many things are either {pa} or {pb}?", f"How many {pa} or {pb} are there?",
                                   f"What number of objects are {pa} or {pb}?",
                                   f"What is the total number of {pa} and {pb}?",
                                   f"How many objects are {pa} or {pb}?"))
             return self.pick((f"Are there any {pa} or {pb}?", (f"Is there anything that is either a "
                               f"{self.np(a, 'indef').removeprefix('a ')} or a {self.np(b, 'indef').removeprefix('a ')}?")))
+        if not count and _occludee_chain(self.program, target) and self.chance(0.6):
+            plain = _Obj(attrs=d.attrs, shape=d.shape, posts=[p for p in d.posts if p not in _OCCLUDED_CLAUSES],
+                         other=d.other)
+            x = self.np(plain, "def")
+            word = self.pick(("occluded", "hidden", "partially hidden", "partly occluded", "blocked from view",
+                              "occluded by another object", "covered by something"))
+            return self.pick((f"Is {x} {word}?", f"Is {x} {word}?", f"Is {x} {word} in the picture?"))
         intro = self._maybe_hoist(d)
         predicative = self._predicative(d)
-        if node.function == "count":
+        if count:
             if predicative is not None and self.chance(0.6):
                 subject, pred = predicative
-                return intro + self.pick((f"How many {subject} are {pred}?", f"What number of {subject} are {pred}?"))
+                return intro + self.pick((f"How many {subject} {pred}?", f"What number of {subject} {pred}?"))
             x = self.np(d, "plural")
-            if d.other and d.shape is None and not d.attrs and self.chance(0.5):
-                return intro + self.pick((f"How many {x} are there?", f"What number of {x} are there?"))
             return intro + self.pick((f"How many {x} are there?", f"What number of {x} are there?",
                                       f"How many {x} are in the scene?", f"Count the {x}.",
                                       f"How many {x} are there in the image?", f"What is the number of {x}?",
                                       f"How many {x} can you see?", f"How many {x} do you see?",
                                       f"How many {x} are in the picture?", f"How many {x}?"))
-        if predicative is not None and self.chance(0.5):
+        if predicative is not None and predicative[1].startswith("are ") and self.chance(0.5):
             subject, pred = predicative
             single = self.np(_strip_posts(d), "indef")
+            pred = pred.removeprefix("are ")
             return intro + self.pick((f"Are there any {subject} {pred}?", f"Is there {single} {pred}?",
                                       f"Are any {subject} {pred}?"))
         if d.other and d.shape is None and not d.attrs and d.posts and self.chance(0.5):
             post = d.posts[0][0]
             return intro + self.pick((f"Is there anything else {post}?", f"Is there another thing {post}?",
-                                      f"Is there any other thing {post}?", (f"Are there any other things "
-                                      f"{d.posts[0][1]}?"), f"Is there anything else {post}?"))
+                                      f"Is there any other thing {post}?",
+                                      f"Are there any other things {d.posts[0][1]}?", f"Is there anything else {post}?"))
         x = self.np(d, "plural")
         single = self.np(d, "indef")
         return intro + self.pick((f"Are there any {x}?", f"Is there {single}?", f"Do you see any {x}?",
@@ -442,23 +444,41 @@ class Realiser:
                                   f"Is there any {self.np(d, 'indef').removeprefix('a ')}?",
                                   f"Are there {x}?", f"Is there {single} in the scene?"))
 
+    def _count_exist_parts(self, part: _Part, count: bool) -> str:
+        owner = part.owner
+        described = owner is not None and (owner.attrs or owner.shape or owner.posts or owner.occluded)
+        if described:
+            o = self.np(owner, "def" if part.owner_unique or self.chance(0.7) else "indef")
+            bare = _Part(attrs=part.attrs, name=part.name, occluded=part.occluded, posts=part.posts)
+            noun = self.part_np(bare, "indef").removeprefix("a ")
+            plural = _pluralise_part(noun)
+            if count:
+                return self.pick((f"How many {plural} does {o} have?", f"How many {plural} are there on {o}?",
+                                  f"How many {plural} of {o} are there?", f"What number of {plural} does {o} have?",
+                                  f"How many {plural} has {o}?"))
+            return self.pick((f"Does {o} have a {noun}?", f"Is there a {noun} on {o}?", f"Does {o} have any {plural}?",
+                              f"Has {o} got a {noun}?", f"Is there a {noun} of {o}?"))
+        noun = self.part_np(part, "indef").removeprefix("a ")
+        if count:
+            return self.pick((f"How many {_pluralise_part(noun)} are there?",
+                              f"What number of {_pluralise_part(noun)} are there?"))
+        return self.pick((f"Is there a {noun}?", f"Are there any {_pluralise_part(noun)}?"))
+
     def _predicative(self, d: _Obj) -> tuple[str, str] | None:
-        """(plural subject, predicate) for "How many cars are behind the bus?" when the last relation reads
-        predicatively."""
+        """(plural subject, predicate with its verb) for "How many cars are behind the bus?" / "How many cars face
+        left?", from the last post-modifier when it reads predicatively."""
         if not d.posts:
             return None
         sing, plur = d.posts[-1]
-        for prefix in ("that are ", "that face ", "that have "):
-            if plur.startswith(prefix):
-                verb = prefix.split()[1]
-                pred = plur.removeprefix(prefix)
-                rest = _Obj(attrs=d.attrs, shape=d.shape, posts=d.posts[:-1], occluded=d.occluded, other=d.other)
-                if verb == "are":
-                    return self.np(rest, "plural"), pred
-                return None
-        if plur == sing and not plur.startswith(("with", "facing", "of", "sharing", "whose", "pointing", "made")):
-            rest = _Obj(attrs=d.attrs, shape=d.shape, posts=d.posts[:-1], occluded=d.occluded, other=d.other)
-            return self.np(rest, "plural"), plur
+        rest = _Obj(attrs=d.attrs, shape=d.shape, posts=d.posts[:-1], occluded=d.occluded, other=d.other)
+        if plur.startswith("that ") and not plur.startswith("that is "):
+            if len(plur.split()) > 1 and plur.split()[1] in ("are", "face", "have", "occlude", "block", "hide"):
+                return self.np(rest, "plural"), plur.removeprefix("that ")
+            return None
+        if plur.startswith(("occluded by", "facing", "pointing")):
+            return self.np(rest, "plural"), "are " + plur
+        if plur == sing and not plur.startswith(("with", "of", "sharing", "whose", "made", "that", "which")):
+            return self.np(rest, "plural"), "are " + plur
         return None
 
     def _compare_attribute(self, node: Node) -> str:
@@ -515,6 +535,13 @@ def _clean_is(text: str) -> str:
 
 def _clean_are(text: str) -> str:
     return text.replace(" and that are ", " and ")
+
+
+def _occludee_chain(program: Program, node: Node) -> bool:
+    """Whether ``node`` is object filters over ``filter_occludee`` (an object-level "is it occluded?")."""
+    while node.function in ("filter_size", "filter_color", "filter_material", "filter_shape", "filter_pose"):
+        node = program[node.inputs[0]]
+    return node.function == "filter_occludee"
 
 
 def _strip_posts(d: _Obj) -> _Obj:

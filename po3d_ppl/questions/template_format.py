@@ -184,8 +184,8 @@ def template_files() -> list[str]:
 
 
 #: Template folders beside the dataset files: families the question parser's corpus instantiates but dataset builds
-#: do not (``clevr/``: the 90 CLEVR-core families).
-TEMPLATE_FOLDERS = ("clevr",)
+#: do not (``clevr/``: the 90 CLEVR-core families; ``extra/``: further forms people ask).
+TEMPLATE_FOLDERS = ("clevr", "extra")
 
 
 @cache
