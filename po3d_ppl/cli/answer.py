@@ -62,13 +62,16 @@ def answer(
         dist = dist if joint else dist.given_presuppositions(warn_above=None)
     console = Console()
     if as_json:
-        out = dist.to_dict()
+        from po3d_ppl.language.answer_words import add_answer_words
+
+        out = add_answer_words(dist.to_dict())
         if parse is not None:
             from po3d_ppl.language import program_to_text
 
             out["parses"] = [{"program": program_to_text(c.program), "probability": c.probability}
                              for c in parse.candidates]
             out["unknown_words"] = list(parse.unknown_words)
+            out["parse_confidence"], out["parse_warning"] = parse.confidence, parse.warning
         console.print_json(json.dumps(out))
         return
     if parse is not None:
@@ -80,6 +83,8 @@ def answer(
         if parse.unknown_words:
             console.print(Text.assemble(("unknown words:", "yellow"), " ", ", ".join(parse.unknown_words)),
                           highlight=False)
+        if parse.warning:
+            console.print(Text.assemble(("warning:", "bold yellow"), " ", parse.warning), highlight=False)
     console.print(str(dist), markup=False, highlight=False)
 
 

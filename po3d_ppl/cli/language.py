@@ -26,6 +26,9 @@ def parse(
         print(json.dumps({
             "question": question,
             "unknown_words": list(result.unknown_words),
+            "corrections": [list(c) for c in result.corrections],
+            "confidence": result.confidence,
+            "warning": result.warning,
             "programs": [{"program": program_to_text(c.program), "probability": c.probability,
                           "log_prob": c.log_prob, "satisfiable": c.satisfiable, "tokens": c.tokens,
                           "json": program_to_json(c.program)}
@@ -33,9 +36,15 @@ def parse(
         }, indent=2))
         return
     console = Console()
-    if result.unknown_words:
-        console.print("unknown words (read as <unk>): " + ", ".join(result.unknown_words), style="yellow",
+    if result.corrections:
+        console.print("read " + ", ".join(f"{a!r} as {b!r}" for a, b in result.corrections), style="dim",
                       markup=False, highlight=False)
+    if result.unknown_words:
+        console.print("unknown words (read by their letters only): " + ", ".join(result.unknown_words),
+                      style="yellow", markup=False, highlight=False)
+    if result.warning:
+        console.print("warning: " + result.warning, style="bold yellow", markup=False, highlight=False)
+    console.print(f"confidence {result.confidence:.3f}", style="dim", highlight=False)
     for rank, candidate in enumerate(result.candidates, 1):
         note = "" if candidate.satisfiable else "  (asks about objects or parts no scene can have)"
         console.print(f"[bold]#{rank}[/]  p = {candidate.probability:.4f}{note}", highlight=False)
@@ -202,6 +211,127 @@ def eval_parser_command(
         record_metrics(MODEL_NAME, f"eval_seed{report['data_seed']}_{split}", summary, model_dir or models_dir())
 
 
+def calibrate_parser_command(
+    model_dir: Path = typer.Option(None, "--model-dir", help="Directory with the parser files (default: models/)."),
+    corpus_seed: int = typer.Option(2001, "--corpus-seed", min=0,
+                                    help="Seed of the held-out corpus questions (not a training or test seed)."),
+    questions: int = typer.Option(1500, "--questions", min=50, help="Development questions (each perturbed)."),
+    threads: int = typer.Option(1, "--threads", min=1, help="torch CPU threads."),
+) -> None:
+    """Fit the parser's confidence calibration on perturbed held-out corpus questions and store it with the model."""
+    import dataclasses
+    import time
+
+    import torch
+    from rich.console import Console
+
+    from po3d_ppl.language import QuestionParser
+    from po3d_ppl.language.seq2seq.calibrate import fit_calibration
+    from po3d_ppl.language.seq2seq.model_io import MODEL_NAME, VOCABULARY, WEIGHTS
+    from po3d_ppl.model_store import models_dir, read_manifest, sha256_file, write_entry
+    from po3d_ppl.questions.parser_corpus import CorpusConfig, generate_corpus
+
+    torch.set_num_threads(threads)
+    directory = Path(model_dir) if model_dir is not None else models_dir()
+    start = time.perf_counter()
+    parser = QuestionParser.load(directory)
+    report = fit_calibration(parser, generate_corpus(questions, CorpusConfig(seed=corpus_seed)), seed=corpus_seed)
+    vocab_path = directory / VOCABULARY
+    meta = json.loads(vocab_path.read_text())
+    meta["calibration"] = dataclasses.asdict(report.calibration)
+    vocab_path.write_text(json.dumps(meta, indent=1) + "\n")
+    entry = dict(read_manifest(directory)[MODEL_NAME])
+    entry.pop("files", None)
+    metrics = dict(entry.pop("metrics", {}))
+    metrics["calibration"] = {"command": shlex.join(["po3d", "train", "parser-calibration", "--corpus-seed",
+                                                     str(corpus_seed), "--questions", str(questions)]),
+                              "questions": report.questions, "dev_accuracy": report.accuracy,
+                              "dev_ece_before": report.ece_before, "dev_ece_after": report.ece_after,
+                              "seconds": round(time.perf_counter() - start, 1),
+                              **dataclasses.asdict(report.calibration)}
+    write_entry(MODEL_NAME, [directory / WEIGHTS, vocab_path], directory, **entry, metrics=metrics)
+    assert sha256_file(vocab_path)
+    Console().print(f"calibration {report.calibration} on {report.questions} perturbed questions (top-1 accuracy "
+                    f"{report.accuracy:.3f}): ECE {report.ece_before:.4f} -> {report.ece_after:.4f}",
+                    markup=False, highlight=False)
+
+
+def eval_language_command(
+    independent: Path = typer.Option(None, "--independent", help="A question set folder (*.jsonl records with "
+                                                                 "question, program, family_group, scene)."),
+    corpus_seed: int = typer.Option(None, "--corpus-seed", min=0, help="Instead: corpus questions of this seed "
+                                                                       "(in distribution; use an unseen seed)."),
+    questions: int = typer.Option(3000, "--questions", min=1, help="Corpus questions (with --corpus-seed)."),
+    template_text: float = typer.Option(1.0, "--template-text", help="Share of corpus questions worded by the "
+                                                                     "template texts (1: our templates only)."),
+    unknown_words: bool = typer.Option(True, "--unknown-words/--no-unknown-words",
+                                       help="--no-unknown-words: the ablation without typo/compound rewriting and "
+                                            "subword input for unknown words."),
+    beam: int = typer.Option(5, "--beam", min=1),
+    model_dir: Path = typer.Option(None, "--model-dir", help="Directory with the parser files (default: models/)."),
+    json_out: Path = typer.Option(None, "--json", help="Write the report (with every miss) here."),
+    record: bool = typer.Option(False, "--record", help="Store the summary in the model's manifest entry."),
+    threads: int = typer.Option(1, "--threads", min=1, help="torch CPU threads."),
+) -> None:
+    """Parser accuracy (exact, or same answer on the scene), per family group, and the ECE of its confidence."""
+    import torch
+    from rich.console import Console
+    from rich.table import Table
+
+    from po3d_ppl.cli._common import literal
+    from po3d_ppl.errors import InputError
+    from po3d_ppl.evaluation.calibration import binned_calibration_error
+    from po3d_ppl.language import QuestionParser
+    from po3d_ppl.questions.parser_eval import SceneQuestion, judge, load_question_set, summarise
+
+    if (independent is None) == (corpus_seed is None):
+        raise InputError("--independent/--corpus-seed", "give exactly one of them")
+    torch.set_num_threads(threads)
+    loaded = QuestionParser.load(model_dir)
+    parser = QuestionParser(loaded.trained, unknown_words=unknown_words)
+    if independent is not None:
+        records = load_question_set(independent)
+        source = str(independent)
+    else:
+        from po3d_ppl.questions.parser_corpus import CorpusConfig, generate_corpus
+
+        corpus = generate_corpus(questions, CorpusConfig(seed=corpus_seed, template_text=template_text))
+        records = [SceneQuestion(str(i), e.question, e.program, e.source, e.family, None)
+                   for i, e in enumerate(corpus)]
+        source = f"corpus seed {corpus_seed} ({template_text:.0%} template texts)"
+    judged = judge(records, lambda q: parser.parse(q, n=1, beam=beam))
+    report = summarise(judged)
+    report["ece"] = binned_calibration_error([j.confidence for j in judged], [j.correct for j in judged])
+    report.update(source=source, unknown_words=unknown_words, beam=beam)
+    table = Table(title=literal(f"question parser on {source}" + ("" if unknown_words else " (no unknown-word "
+                                                                                           "mechanism)")),
+                  caption="correct: exact match or the same answer on the record's scene")
+    for col in ("family group", "questions", "correct", "exact", "mean confidence"):
+        table.add_column(col, justify="left" if col == "family group" else "right")
+    for name, row in [*report["per_group"].items(), ("all", report)]:
+        table.add_row(literal(name), str(row["count"]), f"{row['accuracy']:.4f}", f"{row['exact_match']:.4f}",
+                      f"{row['mean_confidence']:.3f}")
+    console = Console()
+    console.print(table)
+    console.print(f"ECE of the top parse's confidence: {report['ece']:.4f}", markup=False, highlight=False)
+    if json_out is not None:
+        report["misses"] = [{"id": j.record.id, "question": j.record.question, "group": j.record.family_group,
+                             "predicted": j.predicted, "confidence": j.confidence} for j in judged if not j.correct]
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        json_out.write_text(json.dumps(report, indent=2) + "\n")
+    if record:
+        from po3d_ppl.language.seq2seq.model_io import MODEL_NAME
+        from po3d_ppl.model_store import models_dir, record_metrics
+
+        key = (f"independent{'' if unknown_words else '_no_unknown_words'}" if independent is not None
+               else f"corpus_seed{corpus_seed}_template{template_text:g}")
+        summary = {k: report[k] for k in ("count", "accuracy", "exact_match", "ece", "mean_confidence")}
+        summary["per_group"] = {g: {k: r[k] for k in ("count", "accuracy", "exact_match")}
+                                for g, r in report["per_group"].items()}
+        summary["source"] = source
+        record_metrics(MODEL_NAME, key, summary, model_dir or models_dir())
+
+
 def _train_command(data: list[Path], config, out: Path | None, corpus: int = 0, corpus_seed: int = 1,
                    corpus_val: int = 3000, max_minutes: float | None = None, threads: int = 1) -> str:
     """The training command with every setting spelled out (defaults included), to reproduce the weights."""
@@ -228,4 +358,6 @@ def _train_command(data: list[Path], config, out: Path | None, corpus: int = 0, 
 def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:
     app.command("parse")(parse)
     train_app.command("parser")(train_parser_command)
+    train_app.command("parser-calibration")(calibrate_parser_command)
     eval_app.command("parser")(eval_parser_command)
+    eval_app.command("language")(eval_language_command)
