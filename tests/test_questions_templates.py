@@ -172,3 +172,73 @@ def test_verbalisation():
     assert verbalise_answer("school", "Shape") == "school bus"
     assert verbalise_answer(True, "Bool") is True and verbalise_answer(3, "Integer") == 3
     assert verbalise_answer("left", "Direction") == "left"
+
+
+def test_clevr_core_families():
+    """The 90 CLEVR-core families (CLEVR's nine template files), checked like every template file."""
+    from po3d_ppl.questions.template_format import load_template_folder
+
+    clevr = load_template_folder("clevr")
+    counts = {name.removeprefix("clevr/"): len(t) for name, t in clevr.items()}
+    assert counts == {"compare_integer.json": 12, "comparison.json": 20, "one_hop.json": 6, "same_relate.json": 20,
+                      "single_and.json": 10, "single_or.json": 4, "three_hop.json": 6, "two_hop.json": 6,
+                      "zero_hop.json": 6}
+    assert sum(counts.values()) == 90
+    three_hop = clevr["clevr/three_hop.json"][0]
+    assert [n["type"] for n in three_hop.nodes].count("relate_filter_unique") == 2
+    assert len(load_template_folder("extra")["extra/forms.json"]) == 16
+
+
+def test_clevr_template_files_are_current():
+    """The JSON files are what ``templates/clevr/build.py`` writes."""
+    from importlib import resources
+
+    from po3d_ppl.questions.templates.clevr.build import FILES
+
+    root = resources.files("po3d_ppl.questions.templates").joinpath("clevr")
+    for name, build in FILES.items():
+        assert json.loads(root.joinpath(name).read_text()) == build(), name
+
+
+def test_parser_corpus_covers_every_family_with_typed_programs_and_is_deterministic():
+    from po3d_ppl.language import check_program, program_to_tokens
+    from po3d_ppl.questions.parser_corpus import CorpusConfig, corpus_families, generate_corpus
+
+    families = corpus_families()
+    assert len(families) == 61 + 25 + 8 + 90 + 16
+    a = generate_corpus(400, CorpusConfig(seed=5))
+    b = generate_corpus(400, CorpusConfig(seed=5))
+    assert [(e.question, program_to_tokens(e.program)) for e in a] == [
+        (e.question, program_to_tokens(e.program)) for e in b]
+    assert [e.question for e in generate_corpus(50, CorpusConfig(seed=6))] != [e.question for e in a[:50]]
+    for e in a:
+        check_program(e.program)
+        assert e.question.endswith(("?", ".")) and "  " not in e.question and "<" not in e.question
+
+
+def test_the_realiser_phrases_every_family():
+    from po3d_ppl.language.json_io import program_from_json
+    from po3d_ppl.questions.parser_corpus import corpus_families, draw_assignment, expand
+    from po3d_ppl.questions.realise import Realiser
+
+    rng = np.random.default_rng(0)
+    realiser = Realiser(rng)
+    for template in corpus_families():
+        for _ in range(3):
+            program = program_from_json(expand(template, draw_assignment(template, rng, redundant=False)))
+            text = realiser.question(program)
+            assert text[:1].isupper() and text.endswith(("?", ".")), (template.name, text)
+
+
+def test_the_realiser_speaks_the_public_forms():
+    from po3d_ppl.language import parse_program
+    from po3d_ppl.questions.realise import Realiser
+
+    seen = set()
+    program = parse_program("count(scene() | filter_shape[road] | unique | relate[behind] | filter_size[small])")
+    for seed in range(200):
+        seen.add(Realiser(np.random.default_rng(seed)).question(program).lower())
+    assert any(q.startswith("there is a road bike; how many small") and q.endswith("behind it?") for q in seen)
+    plural = parse_program("scene() | filter_shape[bus] | count")
+    texts = {Realiser(np.random.default_rng(s)).question(plural) for s in range(200)}
+    assert any("buss" in t for t in texts) and any("buses" in t for t in texts)
