@@ -257,7 +257,7 @@ class SceneQuestionGenerator:
                 if v is None:
                     continue
                 if self.public:  # the public rule: same-size denotation, on the subset or on the whole scene
-                    if allowed.get(smaller) == out or (smaller in scene_keys and
+                    if allowed.get(smaller) == out or (smaller in scene_keys and key in scene_keys and
                                                        scene_keys[smaller].bit_count() == scene_keys[key].bit_count()):
                         needed = False
                         break

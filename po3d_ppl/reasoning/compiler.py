@@ -17,6 +17,7 @@ import pyro
 import torch
 
 from po3d_ppl import ontology
+from po3d_ppl.catalogue.semantics import DEFAULT_SEMANTICS
 from po3d_ppl.errors import InputError
 from po3d_ppl.evidence import SceneEvidence, ScenePriors
 from po3d_ppl.reasoning import values
@@ -24,6 +25,7 @@ from po3d_ppl.reasoning.execution import run_program
 from po3d_ppl.reasoning.inference.concrete_world import ConcreteWorld, evidence_supports, object_centric
 from po3d_ppl.reasoning.latents import SITE, element_layout
 from po3d_ppl.reasoning.scene_model import scene_model
+from po3d_ppl.reasoning.semantics import answer_support
 
 #: Output types a program may end in (an answer), with their value vocabularies in ``values``.
 ANSWER_TYPES = ("Bool", "Integer", *values.ANSWER_VOCABULARY)
@@ -43,20 +45,22 @@ class CompiledProgram:
     def answer_type(self) -> str:
         return self.typed.type
 
-    def support(self, num_objects: int) -> list:
+    def support(self, num_objects: int, semantics: str = DEFAULT_SEMANTICS) -> list:
         """Every answer the program can give over ``num_objects`` proposals (a count of parts can reach every
-        slot of every proposal)."""
+        slot of every proposal) under ``semantics`` (a public ``query_pose`` may answer ``'None'``)."""
         counts_parts = any(node.operation.name == "count" and node.operation.inputs == ("PartSet",)
                            for node in self.typed.nodes)
-        return values.support(self.answer_type, num_objects * ontology.MAX_PARTS if counts_parts else num_objects)
+        return answer_support(self.answer_type, num_objects * ontology.MAX_PARTS if counts_parts else num_objects,
+                              semantics)
 
-    def model(self, evidence: SceneEvidence, priors: ScenePriors = ScenePriors()) -> torch.Tensor:
+    def model(self, evidence: SceneEvidence, priors: ScenePriors = ScenePriors(),
+              semantics: str = DEFAULT_SEMANTICS) -> torch.Tensor:
         """The program as a Pyro model over the latent scene; its ``answer`` site is the program's output."""
         latents = scene_model(evidence, priors)
         batch = tuple(latents["exists"].shape[:-4]) or (1,)  # the enclosing plates (one element without any)
         world = ConcreteWorld(_object_centric(latents, evidence), batch, evidence.num_objects,
                               evidence.positions, evidence.depths, evidence.directions)
-        value = run_program(self.typed, world).expand(*batch, 1, 1).reshape(batch)
+        value = run_program(self.typed, world, semantics).expand(*batch, 1, 1).reshape(batch)
         return pyro.deterministic("answer", torch.where(world.valid, value, values.INVALID))
 
 

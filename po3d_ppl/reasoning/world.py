@@ -155,6 +155,12 @@ class LatentWorld(ABC):
     def any_part(self, parts: torch.Tensor) -> torch.Tensor:
         """Object set ``[..., N, 1]``: objects owning at least one member of the part set."""
 
+    @abstractmethod
+    def last_part(self, parts: torch.Tensor) -> torch.Tensor:
+        """Part set ``[..., N, P]`` holding only the member of ``parts`` that comes last in the public code's
+        order (objects by index; in an object its recoloured parts before its other parts, each by slot; see
+        :meth:`part_order`), or nothing if ``parts`` is empty. Public semantics' ``relate_occluding_part``."""
+
     def at(self, obj) -> ObjectView:
         return ObjectView(self, obj)
 
@@ -193,6 +199,11 @@ class LatentWorld(ABC):
     @property
     def part_recoloured(self) -> torch.Tensor:
         return self.part_valid & (self.part_color != values.INVALID)
+
+    def part_order(self) -> torch.Tensor:
+        """Rank of every part slot in the public order of :meth:`last_part` (larger = later), ``[..., N, P]``."""
+        plain = (~self.part_recoloured).long()
+        return (self.index * 2 + plain) * ontology.MAX_PARTS + self.slot
 
     @property
     def part_size(self) -> torch.Tensor:

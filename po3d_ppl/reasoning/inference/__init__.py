@@ -21,6 +21,7 @@ from functools import cached_property
 
 import torch
 
+from po3d_ppl.catalogue.semantics import DEFAULT_SEMANTICS, check_semantics
 from po3d_ppl.errors import InputError, UnknownNameError
 from po3d_ppl.evidence import SceneEvidence, ScenePriors
 from po3d_ppl.reasoning import values
@@ -42,8 +43,12 @@ class SceneReasoner:
     """Answers programs about one scene; computes the scene model's posterior tables (and the baselines' views of
     them) once."""
 
-    def __init__(self, evidence: SceneEvidence, priors: ScenePriors = ScenePriors()):
+    def __init__(self, evidence: SceneEvidence, priors: ScenePriors = ScenePriors(),
+                 semantics: str = DEFAULT_SEMANTICS):
         self.evidence, self.priors = evidence, priors
+        #: "intended" or "public" (docs/semantics.md): every method runs programs under it. Under "public" the
+        #: evidence should read the public annotation (``po3d_ppl.questions.public.public_reading``).
+        self.semantics = check_semantics(semantics)
 
     @cached_property
     def posteriors(self) -> SitePosteriors:
@@ -55,7 +60,7 @@ class SceneReasoner:
         from po3d_ppl.reasoning.inference.baselines import soft_rules
 
         with self._device():
-            return soft_rules(self.posteriors, self.evidence)
+            return soft_rules(self.posteriors, self.evidence, self.semantics)
 
     def _device(self) -> torch.device:
         """Inference runs on the evidence's device: every tensor the engines create lands there (``torch.device``
@@ -86,7 +91,7 @@ class SceneReasoner:
 
     # ---- methods -------------------------------------------------------------------------------------------------
     def _support(self, compiled: CompiledProgram) -> list:
-        return compiled.support(self.evidence.num_objects)
+        return compiled.support(self.evidence.num_objects, self.semantics)
 
     def _distribution(self, compiled, probs, invalid, method, **extra) -> AnswerDistribution:
         support = self._support(compiled)
@@ -102,7 +107,7 @@ class SceneReasoner:
         from po3d_ppl.reasoning.inference.exact import exact_distribution
 
         result = exact_distribution(compiled.typed, self.posteriors, self.evidence, len(self._support(compiled)),
-                                    max_elements=max_elements, budget=budget)
+                                    max_elements=max_elements, budget=budget, semantics=self.semantics)
         return self._distribution(compiled, result.probs, result.invalid, "exact", peak_elements=result.peak_elements)
 
     def _dense(self, compiled, budget: Budget, **_):
@@ -110,7 +115,7 @@ class SceneReasoner:
 
         with enforce(budget, "dense enumeration"):
             probs, invalid, count = dense_distribution(compiled.typed, self.posteriors, self.evidence,
-                                                       len(self._support(compiled)))
+                                                       len(self._support(compiled)), semantics=self.semantics)
         return self._distribution(compiled, probs, invalid, "dense", assignments=count)
 
     def _sampling(self, compiled, budget: Budget, num_samples: int = 4096, seed: int = 0, **_):
@@ -118,7 +123,7 @@ class SceneReasoner:
 
         with enforce(budget, "sampling"):
             result = sample_distribution(compiled.typed, self.posteriors, self.evidence, len(self._support(compiled)),
-                                         num_samples=num_samples, seed=seed)
+                                         num_samples=num_samples, seed=seed, semantics=self.semantics)
         # three standard errors per outcome; at least the "rule of three" bound 3/S when samples all agree
         error = float(3 * result.stderr.sum()) + 3 * (result.invalid * (1 - result.invalid) / num_samples) ** 0.5
         error = min(max(error, 3.0 / num_samples), 1.0)
@@ -146,13 +151,13 @@ class SceneReasoner:
 
         with enforce(budget, "generic inference"):
             probs, invalid = generic_distribution(compiled.typed, self.posteriors, self.evidence,
-                                                  len(self._support(compiled)))
+                                                  len(self._support(compiled)), semantics=self.semantics)
         return self._distribution(compiled, probs, invalid, "generic")
 
     def _thresholded(self, compiled, **_):
         from po3d_ppl.reasoning.inference.baselines import thresholded_answer
 
-        answer = thresholded_answer(compiled.typed, self.posteriors, self.evidence)
+        answer = thresholded_answer(compiled.typed, self.posteriors, self.evidence, self.semantics)
         probs = torch.zeros(len(self._support(compiled)), dtype=torch.float64)
         if answer != values.INVALID:
             probs[answer] = 1.0
@@ -166,6 +171,7 @@ class SceneReasoner:
 
 
 def infer(program, evidence: SceneEvidence, method: str = "auto", *, priors: ScenePriors = ScenePriors(),
-          num_samples: int = 4096, seed: int = 0, budget: Budget | None = None) -> AnswerDistribution:
+          num_samples: int = 4096, seed: int = 0, budget: Budget | None = None,
+          semantics: str = DEFAULT_SEMANTICS) -> AnswerDistribution:
     """The answer distribution of ``program`` (text, AST, JSON node list or compiled) given ``evidence``."""
-    return SceneReasoner(evidence, priors).infer(program, method, num_samples=num_samples, seed=seed, budget=budget)
+    return SceneReasoner(evidence, priors, semantics).infer(program, method, num_samples=num_samples, seed=seed, budget=budget)

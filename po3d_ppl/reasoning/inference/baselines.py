@@ -18,6 +18,7 @@ from collections.abc import Callable
 import torch
 
 from po3d_ppl import ontology
+from po3d_ppl.catalogue.semantics import PUBLIC
 from po3d_ppl.errors import Po3dError
 from po3d_ppl.evidence import DTYPE, SceneEvidence
 from po3d_ppl.language.interpret import interpret
@@ -33,11 +34,11 @@ class SoftUnsupported(Po3dError):
     """The soft baseline has no rule for an operation (user-registered operations, for instance)."""
 
 
-def thresholded_answer(typed, post: SitePosteriors, evidence: SceneEvidence) -> int:
+def thresholded_answer(typed, post: SitePosteriors, evidence: SceneEvidence, semantics: str = "intended") -> int:
     """The answer id (``values.INVALID`` when the execution is invalid) of the program run on the one most probable
     scene."""
     world = most_probable_world(post, evidence)
-    value = int(run_program(typed, world).reshape(-1)[0])
+    value = int(run_program(typed, world, semantics).reshape(-1)[0])
     return value if bool(world.valid.reshape(-1)[0]) else values.INVALID
 
 
@@ -95,8 +96,9 @@ def _poisson_binomial(p: torch.Tensor, size: int) -> torch.Tensor:
 SoftRules = dict[tuple[str, tuple[str, ...]], Callable]
 
 
-def soft_rules(post: SitePosteriors, evidence: SceneEvidence) -> SoftRules:
-    """Soft semantics per (operation, input types) over one scene's marginals (they depend on nothing else)."""
+def soft_rules(post: SitePosteriors, evidence: SceneEvidence, semantics: str = "intended") -> SoftRules:
+    """Soft semantics per (operation, input types) over one scene's marginals (they depend on nothing else), under
+    ``semantics`` (the public rules: :func:`_public_soft_rules`)."""
     m = _Marginals(post, evidence)
     n = m.n
     not_self = 1 - torch.eye(n, dtype=DTYPE)
@@ -193,7 +195,73 @@ def soft_rules(post: SitePosteriors, evidence: SceneEvidence) -> SoftRules:
     }
     for t in ("Color", "Material", "Size", "Shape"):
         rules[(f"equal_{t.lower()}", (t, t))] = lambda a, b: torch.stack([1 - (a * b).sum(), (a * b).sum()])
+    if semantics == PUBLIC:
+        rules.update(_public_soft_rules(m, not_self, rules))
     return rules
+
+
+def _public_soft_rules(m: _Marginals, not_self: torch.Tensor, intended: SoftRules) -> SoftRules:
+    """The public rules (docs/semantics.md; ``po3d_ppl.reasoning.semantics`` for the latent worlds) on the
+    independent marginals. ``relate_occluding_part``'s "last part" orders parts by their most probable
+    recoloured state."""
+    from po3d_ppl.reasoning import semantics as public
+
+    def table(t: torch.Tensor) -> torch.Tensor:
+        return t.to(DTYPE)
+
+    labels = public.public_pose_labels(m.pose_degree)  # [N, K]
+    pose_label = torch.stack([(m.pose_probs * (labels == d)).sum(-1) for d in range(len(ontology.POSES))]
+                             + [(m.pose_probs * (labels == values.INVALID)).sum(-1)], -1)  # [N, 5]: 'None' last
+    colors, materials, sizes = (table(t()) for t in (public._color_table, public._material_table, public._size_table))
+    shape_match = table(public.public_shape_table())
+    part_match = table(public.public_partname_table()[:, :-1])
+
+    def pose_relation(code: int):
+        rel = pose_relation_ids(m.pose_degree[:, None, :, None], m.pose_degree[None, :, None, :]) == code
+        valid = (labels != values.INVALID).to(DTYPE)
+        joint = torch.einsum("ka,jb,ka,kjab->kj", m.pose_probs, m.pose_probs, valid, rel.to(DTYPE)) * not_self
+        return lambda x: m.exists * (x @ joint)
+
+    def relate(x, value):
+        if value not in public.PUBLIC_RELATIONS:
+            raise public.SemanticsError(f"relate[{value}] has no public meaning: the public scene files hold only "
+                                        f"the {', '.join(public.PUBLIC_RELATIONS)} relationships")
+        return intended[("relate", ("Object",))](x, value)
+
+    occluder = intended[("filter_occluder", ("ObjectSet",))]
+
+    n, p = m.part_valid.shape
+    plain = (m.part_recoloured < 0.5).to(DTYPE)
+    order = ((torch.arange(n).view(n, 1) * 2 + plain) * p + torch.arange(p).view(1, p)).flatten()
+    later = (order.unsqueeze(0) > order.unsqueeze(1)).to(DTYPE)  # [q, r]: r comes after q
+
+    def last_part(t: torch.Tensor) -> torch.Tensor:
+        flat = t.flatten()
+        none_later = torch.exp(later @ torch.log1p(-flat.clamp(max=1 - 1e-15)))
+        return (flat * none_later).reshape(n, p)
+
+    return {
+        ("filter_color", ("ObjectSet",)): lambda s, v: s * (m.color @ colors[ontology.COLORS.index(v)]),
+        ("filter_material", ("ObjectSet",)): lambda s, v: s * (m.material @ materials[ontology.MATERIALS.index(v)]),
+        ("filter_size", ("ObjectSet",)): lambda s, v: s * (m.size @ sizes[ontology.SIZES.index(v)]),
+        ("filter_shape", ("ObjectSet",)): lambda s, v: s * (m.subtype @ shape_match[ontology.SHAPE_VALUES.index(v)]),
+        ("partfilter_color", ("PartSet",)): lambda t, v: t * (m.part_color @ colors[ontology.COLORS.index(v)]),
+        ("partfilter_material", ("PartSet",)):
+            lambda t, v: t * (m.part_material @ materials[ontology.MATERIALS.index(v)]),
+        ("partfilter_size", ("PartSet",)):
+            lambda t, v: t * m.part_recoloured * (m.size @ sizes[ontology.SIZES.index(v)]).unsqueeze(-1),
+        ("partfilter_partname", ("PartSet",)):
+            lambda t, v: t * (m.part_name @ part_match[ontology.PARTNAME_VALUES.index(v)]),
+        ("filter_pose", ("ObjectSet",)):
+            lambda s, v: s * pose_label[:, ontology.POSES.index(v.removesuffix("_pose"))],
+        ("query_pose", ("Object",)): lambda x: x @ pose_label,
+        ("same_pose", ("Object",)): pose_relation(0),
+        ("vertical_pose", ("Object",)): pose_relation(1),
+        ("opposite_pose", ("Object",)): pose_relation(2),
+        ("relate_occluding_part", ("Object",)): lambda x: last_part(m.part_valid * (m.part_occludes @ x)),
+        ("relate", ("Object",)): relate,
+        ("filter_occluder", ("ObjectSet",)): lambda s: occluder(torch.ones_like(s)),  # ignores its input
+    }
 
 
 def soft_distribution(typed, rules: SoftRules, num_values: int) -> tuple[torch.Tensor, float]:

@@ -189,6 +189,12 @@ class ConcreteWorld(LatentWorld):
     def any_part(self, parts):
         return parts.any(-1, keepdim=True)
 
+    def last_part(self, parts):
+        members = self._members(parts)
+        rank = torch.where(members, self.part_order(), -1)
+        last = rank.flatten(-2).max(-1).values[..., None, None]
+        return members & (rank == last)
+
 
 def _take(tensor: torch.Tensor, index: torch.Tensor, dim: int) -> torch.Tensor:
     """``tensor`` indexed along ``dim`` by a per-batch index ``[*B]`` (the batch dims lead both tensors)."""

@@ -134,6 +134,8 @@ class EnumWorld(LatentWorld):
         self.aggregates: list[Aggregate] = []
         self.part_aggregates: list[PartAggregate] = []
         self.pivot_dims: list[Dim] = []
+        #: part pivots that stand for a one-part set (``last_part``), which a later ``unique`` reuses
+        self._part_pivots: list[PartPivot] = []
         self._ar_n = torch.arange(n).view(n, 1)
         self._ar_p = torch.arange(self.num_parts).view(1, self.num_parts)
 
@@ -368,6 +370,11 @@ class EnumWorld(LatentWorld):
 
     def unique_part(self, parts):
         members = Sop.lift(parts)
+        for pivot in self._part_pivots:  # the set can only hold that pivot's part (a last_part result)
+            at = (self.index == self.ar(pivot.owner)) & (self.slot == self.ar(pivot.slot))
+            if _support_within(members, at, self):
+                self.factors.append(Factor(None, None, owner=pivot.owner, slot=pivot.slot, at_slot=members))
+                return pivot
         owner = self._owner_candidate(members)
         off = None
         if owner is None:
@@ -384,6 +391,29 @@ class EnumWorld(LatentWorld):
         flag = self.alloc(f"R{len(self.part_aggregates)}", 2, "local")
         self.part_aggregates.append(PartAggregate(flag, members))
         return Sop.lift(self.ar(flag) == 1)
+
+    def last_part(self, parts):
+        """The member last in the public order, guessed like ``unique``'s pivot: a flag F (1: the set has a member)
+        and a part pivot (owner J, slot L). With F = 1 the pivot is a member and no later part is; with F = 0 no
+        part is a member and the pivot is fixed at (0, 0), so each outcome is counted once."""
+        members = Sop.lift(parts)
+        found = self.alloc(f"F{len(self.dims)}", 2, "global")
+        owner = self._new_pivot()
+        slot = self.alloc(f"L{len(self.dims)}", self.num_parts, "global")
+        some = self.ar(found) == 1
+        none = ~some & (self.ar(owner) == 0) & (self.ar(slot) == 0)
+        view = self.at_part(PartPivot(owner, slot))
+        pivot_recoloured = (view.name != values.INVALID) & (view.color != values.INVALID)
+        recoloured = Sop.lift(self.part_recoloured)
+        same_kind = (recoloured & pivot_recoloured) | (~recoloured & ~pivot_recoloured)
+        later = (~recoloured & pivot_recoloured) | (same_kind & (self.slot > self.ar(slot)))
+        self.factors.append(Factor(
+            on=(Sop.lift(some) & (~members | ~later)) | (Sop.lift(none) & ~members),
+            off=(Sop.lift(some) & (~members | (self.index < self.ar(owner)))) | (Sop.lift(~some) & ~members),
+            owner=owner, slot=slot,
+            at_slot=(Sop.lift(some) & members) | (Sop.lift(none) & ~members)))
+        self._part_pivots.append(PartPivot(owner, slot))
+        return some & (self.index == self.ar(owner)) & (self.slot == self.ar(slot))
 
     def _aggregate(self, members, cap: int, name: str) -> torch.Tensor:
         members = Sop.lift(members)

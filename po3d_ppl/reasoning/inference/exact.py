@@ -356,20 +356,22 @@ def _count_chain(world: EnumWorld, aggregates, weights: dict, tick) -> torch.Ten
 
 
 def exact_distribution(typed, posteriors: SitePosteriors, evidence: SceneEvidence, num_values: int,
-                       max_elements: float | None = None, budget: Budget | None = None) -> ExactResult:
+                       max_elements: float | None = None, budget: Budget | None = None,
+                       semantics: str = "intended") -> ExactResult:
     """Exact answer distribution of ``typed`` over answer ids ``0..num_values-1`` plus the invalid mass.
 
     Within ``budget`` (:mod:`po3d_ppl.reasoning.budget`): past it, :class:`BudgetExceeded` before the allocation."""
     guard = LazyGuard(budget or Budget(), "exact inference")
     try:
-        return _exact_distribution(typed, posteriors, evidence, num_values, max_elements, guard)
+        return _exact_distribution(typed, posteriors, evidence, num_values, max_elements, guard, semantics)
     finally:
         guard.close()
 
 
-def _exact_distribution(typed, posteriors, evidence, num_values, max_elements, guard: LazyGuard) -> ExactResult:
+def _exact_distribution(typed, posteriors, evidence, num_values, max_elements, guard: LazyGuard,
+                        semantics: str = "intended") -> ExactResult:
     world = EnumWorld(posteriors, evidence, on_grow=guard.grow)
-    value = run_program(typed, world)
+    value = run_program(typed, world, semantics)
     if not isinstance(value, torch.Tensor):
         raise ExactUnsupported("the program's result is not an answer value")
     if isinstance(value, torch.Tensor) and bool((value < 0).all()):  # every execution is invalid: nothing to weigh

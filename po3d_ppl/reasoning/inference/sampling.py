@@ -84,12 +84,12 @@ class SampledResult:
 
 
 def sample_distribution(typed, posteriors: SitePosteriors, evidence: SceneEvidence, num_values: int,
-                        num_samples: int = 4096, seed: int = 0) -> SampledResult:
+                        num_samples: int = 4096, seed: int = 0, semantics: str = "intended") -> SampledResult:
     generator = torch.Generator(device="cpu").manual_seed(seed)
     source = PosteriorSampleSource(posteriors, num_samples, generator)
     world = ConcreteWorld(source, (num_samples,), evidence.num_objects, evidence.positions, evidence.depths,
                           evidence.directions)
-    value = run_program(typed, world).reshape(-1).expand(num_samples)
+    value = run_program(typed, world, semantics).reshape(-1).expand(num_samples)
     valid = world.valid & (value != INVALID)
     counts = torch.bincount(value[valid], minlength=num_values).to(torch.float64)
     probs = counts / num_samples

@@ -67,14 +67,15 @@ class _Tables:
 
 
 def dense_distribution(typed, post: SitePosteriors, evidence: SceneEvidence, num_values: int,
-                       max_assignments: int = MAX_ASSIGNMENTS) -> tuple[torch.Tensor, float, int]:
+                       max_assignments: int = MAX_ASSIGNMENTS, semantics: str = "intended"
+                       ) -> tuple[torch.Tensor, float, int]:
     """Answer probabilities per id, invalid mass, and the number of joint assignments enumerated."""
     tables = _Tables(post, evidence)
     n = evidence.num_objects
 
     # 1. which sites does the program read? (run it on the most probable scene)
     read: set[str] = set()
-    run_program(typed, most_probable_world(post, evidence, on_read=read.add))
+    run_program(typed, most_probable_world(post, evidence, on_read=read.add), semantics)
 
     # 2. enumerate the joint support of their elements
     subtypes = [[int(s) for s in torch.nonzero(post.probs["subtype"][i] > 0).flatten()] for i in range(n)]
@@ -103,7 +104,7 @@ def dense_distribution(typed, post: SitePosteriors, evidence: SceneEvidence, num
     supports = evidence_supports(evidence)
     world = ConcreteWorld(lambda name: object_centric(name, batch.__getitem__, supports), (count,), n,
                           evidence.positions, evidence.depths, evidence.directions)
-    value = run_program(typed, world).expand(count, 1, 1).reshape(count)
+    value = run_program(typed, world, semantics).expand(count, 1, 1).reshape(count)
     valid = world.valid & (value != INVALID)
     probs = torch.zeros(num_values, dtype=DTYPE).scatter_add_(0, value[valid], weights[valid])
     return probs, float(max(0.0, 1.0 - probs.sum())), count

@@ -77,9 +77,9 @@ def _guess(name: str, size: int) -> torch.Tensor:
 
 
 def generic_distribution(typed, posteriors: SitePosteriors, evidence: SceneEvidence,
-                         num_values: int) -> tuple[torch.Tensor, float]:
+                         num_values: int, semantics: str = "intended") -> tuple[torch.Tensor, float]:
     world = EnumWorld(posteriors, evidence)
-    answer = run_program(typed, world)
+    answer = run_program(typed, world, semantics)
     n, p = world.num_objects, world.num_parts
     globals_ = [d for d in world.dims if d.kind == "global"]
     flags = {a.dim: a.members for a in world.part_aggregates}
