@@ -47,15 +47,16 @@ def _categorical(name: str, probs: torch.Tensor, loglik: torch.Tensor) -> torch.
     return value
 
 
-class EmptyEvidenceError(Po3dError, NotImplementedError):
-    """Evidence with no object proposals: not supported yet (Pyro plates cannot have size 0, and the engines'
-    tables assume at least one object)."""
+class EmptyEvidenceError(Po3dError, ValueError):
+    """The scene model of evidence with no object proposals: a Pyro plate cannot have size 0. Answering programs
+    over such evidence works (``SceneReasoner`` answers them without the model, ``inference/empty.py``); only the
+    model and its posterior tables refuse."""
 
 
 def check_not_empty(evidence: SceneEvidence) -> None:
     if evidence.num_objects == 0:
-        raise EmptyEvidenceError("the evidence has no object proposals; reasoning over an empty scene is not "
-                                 "implemented yet (every program needs at least one proposal)")
+        raise EmptyEvidenceError("the evidence has no object proposals, so the scene model has no plates to sample "
+                                 "(answer programs with SceneReasoner, which handles an empty scene)")
 
 
 def scene_model(evidence: SceneEvidence, priors: ScenePriors = ScenePriors()) -> dict[str, torch.Tensor]:

@@ -77,6 +77,8 @@ class SceneReasoner:
         if not isinstance(num_samples, int) or isinstance(num_samples, bool) or num_samples < 1:
             raise InputError("num_samples", f"must be a positive integer, got {num_samples!r}")
         compiled = program if isinstance(program, CompiledProgram) else compile_program(program)
+        if self.evidence.num_objects == 0:
+            return self._empty(compiled, method)
         run = getattr(self, f"_{method}")
         with self._device():
             return run(compiled, num_samples=num_samples, seed=seed, budget=budget or Budget())
@@ -86,6 +88,8 @@ class SceneReasoner:
         if method not in REFERENCE_METHODS:
             raise UnknownNameError("reference method", method, REFERENCE_METHODS)
         compiled = program if isinstance(program, CompiledProgram) else compile_program(program)
+        if self.evidence.num_objects == 0:
+            return self._empty(compiled, method)
         with self._device():
             return getattr(self, f"_{method}")(compiled, budget=budget or Budget())
 
@@ -102,6 +106,15 @@ class SceneReasoner:
         error = extra.pop("error", 0.0)
         return AnswerDistribution(answers, float(invalid), method, compiled.answer_type, error=error, stderr=errs,
                                   info=extra)
+
+    def _empty(self, compiled, method: str) -> AnswerDistribution:
+        """No proposals: no latents, one certain answer for every method (``inference/empty.py``)."""
+        from po3d_ppl.reasoning.inference.empty import empty_distribution
+
+        with self._device():
+            probs, invalid = empty_distribution(compiled.typed, self.evidence, len(self._support(compiled)),
+                                                self.semantics)
+        return self._distribution(compiled, probs, invalid, method, empty_scene=True)
 
     def _exact(self, compiled, budget: Budget, max_elements: float | None = None, **_):
         from po3d_ppl.reasoning.inference.exact import exact_distribution

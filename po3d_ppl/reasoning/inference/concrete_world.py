@@ -168,6 +168,8 @@ class ConcreteWorld(LatentWorld):
         members = self._members(objects).squeeze(-1)
         found = members.sum(-1) == 1
         self.valid = self.valid & found
+        if members.shape[-1] == 0:  # no objects at all (empty evidence): never exactly one
+            return torch.full(found.shape, values.INVALID, dtype=torch.long)
         return torch.where(found, members.long().argmax(-1), values.INVALID)
 
     def unique_part(self, parts):
@@ -175,6 +177,9 @@ class ConcreteWorld(LatentWorld):
         flat = members.flatten(-2)
         found = flat.sum(-1) == 1
         self.valid = self.valid & found
+        if flat.shape[-1] == 0:
+            none = torch.full(found.shape, values.INVALID, dtype=torch.long)
+            return PartHandle(none, none)
         index = flat.long().argmax(-1)
         width = members.shape[-1]
         return PartHandle(torch.where(found, index // width, values.INVALID),
