@@ -1,0 +1,560 @@
+"""The attribute network (issue "Perception II", item 2): object subtype, colour, material and size, and each part's
+look (plain, or recoloured with which colour and material), read from crops of the image around the masks the
+object parser produced. Trained from scratch (:mod:`~po3d_ppl.perception.train_attributes`); no pretrained weights.
+
+**Inputs are pixels and masks only.** :meth:`AttributeNet.object_loglik` takes the image and one visible mask per
+proposal; :meth:`AttributeNet.part_loglik` takes part masks (or part-id maps, as a mesh projection gives them) and
+the masks of the objects they belong to. Nothing reads a scene file: training builds its crops from ground-truth
+masks with exactly these functions, and the lead's parser passes its own masks.
+
+**Crops.** An object is cut out as a square window around its mask's box (``object_context`` times the longer
+side) resampled to ``object_size`` pixels, with the mask as a fourth channel: the network sees the object, its
+outline and what occludes it. A square window loses absolute scale, which *size* needs, so each object also gets
+its box and mask area in image units (``OBJECT_GEOMETRY``; the camera prior makes pixel size and image row a
+proxy for depth). A part is cut out around its own box (``part_context`` times its longer side, at least
+``min_part_window`` pixels) at ``part_size`` pixels, with the part mask and its object's mask as channels.
+Whether a part is *recoloured* means "does it differ from its object's look", which a part crop alone does not
+show when the object's body is out of the window; so the part head also receives its object's colour and
+material probabilities (the object head's calibrated output at inference; the ground truth, smoothed, in training).
+
+**Outputs are log-probabilities** over the orderings of :mod:`po3d_ppl.ontology` (``OBJECT_HEADS``,
+``PART_HEADS``), each head divided by its own temperature, fitted on a validation split
+(:meth:`AttributeNet.fit_temperatures`). For the evidence contract, :meth:`AttributeNet.style_loglik` turns a part's
+three heads into the 17 styles of ``SceneEvidence.part_style_loglik`` (``evidence.style_index`` ordering) *as a
+likelihood*: the training frequency of recoloured parts is divided out, since the scene model applies its own prior
+(``ScenePriors.part_recoloured``). Object heads are trained on uniformly sampled attributes, so their posteriors
+are already normalised likelihoods. :meth:`AttributeNet.part_style_table` fills the whole ``[N, 21, P, 17]``
+table from per-(proposal, subtype hypothesis) part-id maps; slots without pixels stay 0 (uninformative; the
+visibility table says they are hidden).
+
+Code runs on any device (inputs are moved to the module's). Loading goes through :mod:`po3d_ppl.model_store`
+(sha256 and size against ``models/manifest.json``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from po3d_ppl import ontology
+from po3d_ppl.errors import InputError, ModelFileError
+from po3d_ppl.evidence import DTYPE, NUM_STYLES, P, S, style_index
+
+MODEL_NAME = "attributes"
+WEIGHTS = "attributes.safetensors"
+FORMAT = 1
+RETRAIN = ("retrain it with `po3d train attributes --data /work/data/perc_train_s711 --out models/` (see "
+           "docs/perception.md) or restore it with `git checkout models/`")
+
+#: Object heads and their class orderings (from the ontology; never restated).
+OBJECT_HEADS: Mapping[str, tuple[str, ...]] = {
+    "subtype": ontology.SUBTYPES, "color": ontology.COLORS, "material": ontology.MATERIALS, "size": ontology.SIZES,
+}
+#: A part's look: the object's own, or recoloured (the public ``parts`` field lists only recoloured parts).
+PART_LOOKS: tuple[str, ...] = ("plain", "recoloured")
+#: Part heads. ``color`` and ``material`` are conditional on the part being recoloured.
+PART_HEADS: Mapping[str, tuple[str, ...]] = {
+    "recoloured": PART_LOOKS, "color": ontology.COLORS, "material": ontology.MATERIALS,
+}
+#: Scalars per object crop: box centre (x / W, y / H), box width and height / H, sqrt(mask area) / H, box bottom / H.
+OBJECT_GEOMETRY = 6
+#: Scalars per part crop: side and area relative to the object's, log area, centre offset from the object's centre.
+PART_GEOMETRY = 5
+#: The object's look given to the part head: colour probabilities then material probabilities.
+REFERENCE = len(ontology.COLORS) + len(ontology.MATERIALS)
+#: Object channels: RGB, mask. Part channels: RGB, part mask, object mask.
+OBJECT_CHANNELS, PART_CHANNELS = 4, 5
+
+
+def _style_columns() -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """For each recoloured style column of the contract: its column, colour id and material id."""
+    cols, colors, materials = [], [], []
+    for c, color in enumerate(ontology.COLORS):
+        for m, material in enumerate(ontology.MATERIALS):
+            cols.append(style_index(color, material))
+            colors.append(c)
+            materials.append(m)
+    return torch.tensor(cols), torch.tensor(colors), torch.tensor(materials)
+
+
+STYLE_COLUMN, STYLE_COLOR, STYLE_MATERIAL = _style_columns()
+
+
+@dataclass(frozen=True)
+class AttributeConfig:
+    """Architecture and crop geometry (stored with the weights, so a saved model rebuilds itself)."""
+
+    object_size: int = 64
+    part_size: int = 32
+    #: Channels of the four stages (strides 1, 2, 4, 8 of the crop).
+    object_widths: tuple[int, int, int, int] = (16, 32, 64, 128)
+    part_widths: tuple[int, int, int, int] = (16, 32, 64, 96)
+    hidden: int = 128
+    object_context: float = 1.15
+    min_object_window: float = 24.0
+    part_context: float = 2.0
+    min_part_window: float = 12.0
+
+    def __post_init__(self) -> None:
+        for name in ("object_size", "part_size"):
+            v = getattr(self, name)
+            if not (isinstance(v, int) and v >= 8 and v % 8 == 0):
+                raise InputError(f"AttributeConfig.{name}", f"must be a multiple of 8, >= 8, got {v!r}")
+        for name in ("object_widths", "part_widths"):
+            v = getattr(self, name)
+            if len(v) != 4 or not all(isinstance(w, int) and w >= 4 for w in v):
+                raise InputError(f"AttributeConfig.{name}", f"must be four integers >= 4, got {v!r}")
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["object_widths"], d["part_widths"] = list(self.object_widths), list(self.part_widths)
+        return d
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> AttributeConfig:
+        d = dict(data)
+        d["object_widths"], d["part_widths"] = tuple(d["object_widths"]), tuple(d["part_widths"])
+        return cls(**d)
+
+
+# --- crops -----------------------------------------------------------------------------------------------------------
+
+
+def mask_boxes(masks: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Boxes ``[N, 4]`` (x0, y0, x1, y1; pixel edges, x1/y1 exclusive; zeros when empty) and pixel counts ``[N]``
+    of bool masks ``[N, H, W]``."""
+    n, h, w = masks.shape
+    rows, cols = masks.any(2), masks.any(1)
+    ys = torch.arange(h, device=masks.device)
+    xs = torch.arange(w, device=masks.device)
+    y0 = torch.where(rows, ys, h).amin(1) if n else ys.new_zeros(0)
+    y1 = torch.where(rows, ys + 1, 0).amax(1) if n else ys.new_zeros(0)
+    x0 = torch.where(cols, xs, w).amin(1) if n else xs.new_zeros(0)
+    x1 = torch.where(cols, xs + 1, 0).amax(1) if n else xs.new_zeros(0)
+    boxes = torch.stack([x0, y0, x1, y1], -1).float()
+    counts = masks.flatten(1).sum(1)
+    return torch.where((counts > 0)[:, None], boxes, torch.zeros_like(boxes)), counts
+
+
+def label_boxes(labels: torch.Tensor, num_labels: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """Boxes ``[L, 4]`` and pixel counts ``[L]`` of every label ``0 .. L-1`` of an integer map ``[H, W]`` (-1 and
+    labels outside the range are ignored): one pass, for part-id maps with many parts."""
+    h, w = labels.shape
+    flat = labels.reshape(-1)
+    keep = (flat >= 0) & (flat < num_labels)
+    ids = flat[keep].long()
+    pix = torch.arange(h * w, device=labels.device)[keep]
+    y, x = (pix // w).float(), (pix % w).float()
+    big = float(max(h, w) + 1)
+    out = []
+    for coord, reduce, init in ((x, "amin", big), (y, "amin", big), (x + 1, "amax", 0.0), (y + 1, "amax", 0.0)):
+        out.append(torch.full((num_labels,), init, device=labels.device).scatter_reduce(0, ids, coord, reduce))
+    counts = torch.zeros(num_labels, dtype=torch.long, device=labels.device).scatter_add_(0, ids,
+                                                                                         torch.ones_like(ids))
+    boxes = torch.stack(out, -1)
+    return torch.where((counts > 0)[:, None], boxes, torch.zeros_like(boxes)), counts
+
+
+def square_windows(boxes: torch.Tensor, context: float, min_side: float) -> torch.Tensor:
+    """Square windows ``[K, 3]`` (centre x, centre y, side) around boxes ``[K, 4]`` (x0, y0, x1, y1)."""
+    cx, cy = (boxes[:, 0] + boxes[:, 2]) / 2, (boxes[:, 1] + boxes[:, 3]) / 2
+    side = torch.maximum(boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1]) * context
+    return torch.stack([cx, cy, side.clamp(min=min_side)], -1)
+
+
+def _window_coords(windows: torch.Tensor, size: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """Pixel coordinates (x [K, s], y [K, s]) of the sample centres of each window's ``size`` x ``size`` grid."""
+    t = (torch.arange(size, device=windows.device, dtype=windows.dtype) + 0.5) / size - 0.5
+    xs = windows[:, :1] + windows[:, 2:3] * t
+    ys = windows[:, 1:2] + windows[:, 2:3] * t
+    return xs, ys
+
+
+def crop_pixels(pixels: torch.Tensor, windows: torch.Tensor, size: int) -> torch.Tensor:
+    """Bilinear crops ``[K, C, size, size]`` of an image ``[C, H, W]`` (zeros outside it). All windows are sampled
+    in one ``grid_sample`` call on the single image (a ``K * size`` tall grid), so nothing is copied per crop."""
+    c, h, w = pixels.shape
+    k = windows.shape[0]
+    if k == 0:
+        return pixels.new_zeros((0, c, size, size))
+    xs, ys = _window_coords(windows.to(pixels.dtype), size)
+    gx = (2 * xs / w - 1)[:, None, :].expand(k, size, size)
+    gy = (2 * ys / h - 1)[:, :, None].expand(k, size, size)
+    grid = torch.stack([gx, gy], -1).reshape(1, k * size, size, 2)
+    out = F.grid_sample(pixels[None], grid, mode="bilinear", padding_mode="zeros", align_corners=False)
+    return out[0].view(c, k, size, size).transpose(0, 1)
+
+
+def crop_labels(planes: torch.Tensor, plane_index: torch.Tensor, values: torch.Tensor, windows: torch.Tensor,
+                size: int) -> torch.Tensor:
+    """Nearest-pixel crops ``[K, size, size]`` (bool) of ``planes[plane_index[k]] == values[k]``: works for bool
+    masks (values True) and for integer label maps (values = label ids) without expanding them to masks."""
+    _, h, w = planes.shape
+    xs, ys = _window_coords(windows.float(), size)
+    ix, iy = torch.floor(xs).long(), torch.floor(ys).long()
+    inside = ((iy >= 0) & (iy < h))[:, :, None] & ((ix >= 0) & (ix < w))[:, None, :]
+    picked = planes[plane_index[:, None, None], iy.clamp(0, h - 1)[:, :, None], ix.clamp(0, w - 1)[:, None, :]]
+    return (picked == values.to(planes.dtype)[:, None, None]) & inside
+
+
+def _as_pixels(image: Any, device: torch.device) -> torch.Tensor:
+    """Float RGB ``[3, H, W]`` in [0, 1] from a tensor (float or uint8) or an ``ImageInput``."""
+    pixels = getattr(image, "pixels", image)
+    if not isinstance(pixels, torch.Tensor) or pixels.dim() != 3 or pixels.shape[0] != 3:
+        raise InputError("image", f"expected an RGB tensor [3, H, W] or an ImageInput, got "
+                                  f"{tuple(pixels.shape) if isinstance(pixels, torch.Tensor) else type(pixels).__name__}")
+    if pixels.dtype == torch.uint8:
+        return pixels.to(device=device, dtype=torch.float32) / 255.0
+    return pixels.to(device=device, dtype=torch.float32)
+
+
+def _check_masks(masks: torch.Tensor, pixels: torch.Tensor, what: str) -> torch.Tensor:
+    if not isinstance(masks, torch.Tensor) or masks.dim() != 3 or tuple(masks.shape[1:]) != tuple(pixels.shape[1:]):
+        shape = tuple(masks.shape) if isinstance(masks, torch.Tensor) else type(masks).__name__
+        raise InputError(what, f"expected bool masks [N, {pixels.shape[1]}, {pixels.shape[2]}], got {shape}")
+    return masks.to(device=pixels.device, dtype=torch.bool)
+
+
+@dataclass
+class ObjectInputs:
+    """What the object network reads: ``crops`` [N, 4, s, s] (RGB in [0, 1], mask in {0, 1}), ``geometry``
+    [N, OBJECT_GEOMETRY], and the windows, boxes and pixel counts they came from (to crop parts against)."""
+
+    crops: torch.Tensor
+    geometry: torch.Tensor
+    boxes: torch.Tensor
+    counts: torch.Tensor
+
+
+def object_inputs(pixels: torch.Tensor, masks: torch.Tensor, config: AttributeConfig) -> ObjectInputs:
+    """Object crops of ``pixels`` [3, H, W] (float, [0, 1]) for bool ``masks`` [N, H, W]."""
+    h, w = pixels.shape[1:]
+    boxes, counts = mask_boxes(masks)
+    win = square_windows(boxes, config.object_context, config.min_object_window)
+    rgb = crop_pixels(pixels, win, config.object_size)
+    n = masks.shape[0]
+    idx = torch.arange(n, device=masks.device)
+    mask = crop_labels(masks, idx, torch.ones(n, dtype=torch.bool, device=masks.device), win, config.object_size)
+    crops = torch.cat([rgb, mask[:, None].to(rgb.dtype)], 1)
+    geometry = torch.stack([(boxes[:, 0] + boxes[:, 2]) / (2 * w), (boxes[:, 1] + boxes[:, 3]) / (2 * h),
+                            (boxes[:, 2] - boxes[:, 0]) / h, (boxes[:, 3] - boxes[:, 1]) / h,
+                            counts.float().sqrt() / h, boxes[:, 3] / h], -1)
+    return ObjectInputs(crops, geometry.to(rgb.dtype), boxes, counts)
+
+
+def part_inputs(pixels: torch.Tensor, planes: torch.Tensor, plane_index: torch.Tensor, values: torch.Tensor,
+                part_boxes: torch.Tensor, part_counts: torch.Tensor, objects: ObjectInputs, object_masks: torch.Tensor,
+                owner: torch.Tensor, config: AttributeConfig) -> tuple[torch.Tensor, torch.Tensor]:
+    """Part crops ``[M, 5, s, s]`` (RGB, part mask, owner's mask) and geometry ``[M, PART_GEOMETRY]``. Part m is
+    ``planes[plane_index[m]] == values[m]`` with box ``part_boxes[m]``; ``owner[m]`` is its object's row."""
+    win = square_windows(part_boxes, config.part_context, config.min_part_window)
+    s = config.part_size
+    rgb = crop_pixels(pixels, win, s)
+    part = crop_labels(planes, plane_index, values, win, s)
+    obj = crop_labels(object_masks, owner, torch.ones_like(owner, dtype=torch.bool), win, s)
+    crops = torch.cat([rgb, part[:, None].to(rgb.dtype), obj[:, None].to(rgb.dtype)], 1)
+    ob = objects.boxes[owner]
+    oside = torch.maximum(ob[:, 2] - ob[:, 0], ob[:, 3] - ob[:, 1]).clamp(min=1.0)
+    pside = torch.maximum(part_boxes[:, 2] - part_boxes[:, 0], part_boxes[:, 3] - part_boxes[:, 1])
+    oarea = objects.counts[owner].float().clamp(min=1.0)
+    geometry = torch.stack([pside / oside, part_counts.float() / oarea, torch.log1p(part_counts.float()) / 8,
+                            ((part_boxes[:, 0] + part_boxes[:, 2]) - (ob[:, 0] + ob[:, 2])) / (2 * oside),
+                            ((part_boxes[:, 1] + part_boxes[:, 3]) - (ob[:, 1] + ob[:, 3])) / (2 * oside)], -1)
+    return crops, geometry.to(rgb.dtype)
+
+
+# --- networks --------------------------------------------------------------------------------------------------------
+
+
+def _conv(cin: int, cout: int, stride: int = 1) -> nn.Sequential:
+    return nn.Sequential(nn.Conv2d(cin, cout, 3, stride, 1, bias=False), nn.BatchNorm2d(cout), nn.ReLU(inplace=True))
+
+
+class CropNet(nn.Module):
+    """A crop (uint8-range channels scaled to [0, 1]) and scalars -> one logit vector per head.
+
+    Four conv stages (stride 1, 2, 4, 8), global mean and max pooling (max keeps small bright details such as a
+    metal highlight or a thin recoloured part), the scalars concatenated, one hidden layer, a linear layer per head.
+    """
+
+    def __init__(self, channels: int, widths: tuple[int, int, int, int], scalars: int, hidden: int,
+                 heads: Mapping[str, int]):
+        super().__init__()
+        w0, w1, w2, w3 = widths
+        self.trunk = nn.Sequential(_conv(channels, w0), _conv(w0, w1, 2), _conv(w1, w1), _conv(w1, w2, 2),
+                                   _conv(w2, w2), _conv(w2, w3, 2), _conv(w3, w3))
+        self.mlp = nn.Sequential(nn.Linear(2 * w3 + scalars, hidden), nn.ReLU(inplace=True))
+        self.heads = nn.ModuleDict({name: nn.Linear(hidden, k) for name, k in heads.items()})
+
+    def forward(self, crops: torch.Tensor, scalars: torch.Tensor) -> dict[str, torch.Tensor]:
+        x = crops.clone()
+        x[:, :3] = (x[:, :3] - 0.5) / 0.25
+        x[:, 3:] = x[:, 3:] * 2 - 1
+        f = self.trunk(x.contiguous(memory_format=torch.channels_last))  # ~20% faster on CPU
+        f = torch.cat([f.mean((2, 3)), f.amax((2, 3)), scalars], 1)
+        h = self.mlp(f)
+        return {name: head(h) for name, head in self.heads.items()}
+
+
+def _head_sizes(heads: Mapping[str, tuple[str, ...]]) -> dict[str, int]:
+    return {name: len(classes) for name, classes in heads.items()}
+
+
+class AttributeNet(nn.Module):
+    """The object and part networks with their per-head temperatures and the part training prior.
+
+    ``temperature`` buffers (one per head, ``object.<head>`` / ``part.<head>``) divide the logits; 1 until
+    :meth:`fit_temperatures`. ``part_prior`` is the training frequency of (plain, recoloured), divided out by
+    :meth:`style_loglik`.
+    """
+
+    def __init__(self, config: AttributeConfig = AttributeConfig()):
+        super().__init__()
+        self.config = config
+        self.objects = CropNet(OBJECT_CHANNELS, config.object_widths, OBJECT_GEOMETRY, config.hidden,
+                               _head_sizes(OBJECT_HEADS))
+        self.parts = CropNet(PART_CHANNELS, config.part_widths, PART_GEOMETRY + REFERENCE, config.hidden,
+                             _head_sizes(PART_HEADS))
+        self.register_buffer("object_temperature", torch.ones(len(OBJECT_HEADS)))
+        self.register_buffer("part_temperature", torch.ones(len(PART_HEADS)))
+        self.register_buffer("part_prior", torch.full((len(PART_LOOKS),), 1.0 / len(PART_LOOKS)))
+
+    @property
+    def device(self) -> torch.device:
+        return self.object_temperature.device
+
+    def num_parameters(self) -> int:
+        return sum(p.numel() for p in self.parameters())
+
+    def temperatures(self) -> dict[str, float]:
+        out = {f"object.{h}": float(t) for h, t in zip(OBJECT_HEADS, self.object_temperature)}
+        return out | {f"part.{h}": float(t) for h, t in zip(PART_HEADS, self.part_temperature)}
+
+    # -- raw logits (training, calibration) -------------------------------------------------------------------------
+
+    def object_logits(self, crops: torch.Tensor, geometry: torch.Tensor) -> dict[str, torch.Tensor]:
+        return self.objects(crops, geometry)
+
+    def part_logits(self, crops: torch.Tensor, geometry: torch.Tensor, reference: torch.Tensor
+                    ) -> dict[str, torch.Tensor]:
+        return self.parts(crops, torch.cat([geometry, reference], 1))
+
+    def calibrate(self, logits: Mapping[str, torch.Tensor], level: str, calibrated: bool = True
+                  ) -> dict[str, torch.Tensor]:
+        """Log-probabilities of ``level`` ("object" or "part") logits, divided by each head's temperature."""
+        heads, temps = (OBJECT_HEADS, self.object_temperature) if level == "object" else \
+            (PART_HEADS, self.part_temperature)
+        return {h: F.log_softmax(logits[h] / (temps[i] if calibrated else 1.0), -1) for i, h in enumerate(heads)
+                if h in logits}
+
+    def reference(self, object_logp: Mapping[str, torch.Tensor]) -> torch.Tensor:
+        """The part head's view of an object's look: its colour and material probabilities ``[N, REFERENCE]``."""
+        return torch.cat([object_logp["color"].exp(), object_logp["material"].exp()], 1)
+
+    # -- public inference ---------------------------------------------------------------------------------------------
+
+    @torch.no_grad()
+    def object_loglik(self, image: Any, masks: torch.Tensor, calibrated: bool = True) -> dict[str, torch.Tensor]:
+        """Per-proposal log-probabilities ``{head: [N, K]}`` (``OBJECT_HEADS`` orderings) from the image
+        (``[3, H, W]`` float in [0, 1] or uint8, or an ``ImageInput``) and one bool visible mask per proposal."""
+        pixels = _as_pixels(image, self.device)
+        masks = _check_masks(masks, pixels, "masks")
+        return self._objects(pixels, masks, calibrated)[0]
+
+    def _objects(self, pixels: torch.Tensor, masks: torch.Tensor, calibrated: bool
+                 ) -> tuple[dict[str, torch.Tensor], ObjectInputs]:
+        inputs = object_inputs(pixels, masks, self.config)
+        self.eval()
+        logp = self.calibrate(self.object_logits(inputs.crops, inputs.geometry), "object", calibrated)
+        return logp, inputs
+
+    @torch.no_grad()
+    def part_loglik(self, image: Any, part_masks: torch.Tensor, object_masks: torch.Tensor, owner: torch.Tensor,
+                    calibrated: bool = True) -> dict[str, torch.Tensor]:
+        """Per-part log-probabilities ``{"recoloured": [M, 2], "color": [M, 8], "material": [M, 2],
+        "style": [M, 17]}``: part m is the bool mask ``part_masks[m]`` ([M, H, W]) of object ``owner[m]`` (a row
+        of ``object_masks`` [N, H, W]). ``color``/``material`` are conditional on recoloured; ``style`` is
+        :meth:`style_loglik`, ready for ``SceneEvidence.part_style_loglik``."""
+        pixels = _as_pixels(image, self.device)
+        part_masks = _check_masks(part_masks, pixels, "part_masks")
+        object_masks = _check_masks(object_masks, pixels, "object_masks")
+        owner = torch.as_tensor(owner, dtype=torch.long, device=self.device).reshape(-1)
+        if owner.shape[0] != part_masks.shape[0] or (owner.numel() and not
+                                                     (0 <= int(owner.min()) and int(owner.max()) < len(object_masks))):
+            raise InputError("owner", f"expected {part_masks.shape[0]} object rows in 0..{len(object_masks) - 1}")
+        boxes, counts = mask_boxes(part_masks)
+        idx = torch.arange(part_masks.shape[0], device=self.device)
+        return self._parts(pixels, part_masks, idx, torch.ones_like(idx, dtype=torch.bool), boxes, counts,
+                           object_masks, owner, calibrated)
+
+    def _parts(self, pixels, planes, plane_index, values, boxes, counts, object_masks, owner, calibrated,
+               objects: tuple[dict[str, torch.Tensor], ObjectInputs] | None = None) -> dict[str, torch.Tensor]:
+        obj_logp, obj_inputs = objects or self._objects(pixels, object_masks, True)
+        crops, geometry = part_inputs(pixels, planes, plane_index, values, boxes, counts, obj_inputs, object_masks,
+                                      owner, self.config)
+        self.eval()
+        logits = self.part_logits(crops, geometry, self.reference(obj_logp)[owner])
+        logp = self.calibrate(logits, "part", calibrated)
+        logp["style"] = self.style_loglik(logp)
+        return logp
+
+    def style_loglik(self, part_logp: Mapping[str, torch.Tensor]) -> torch.Tensor:
+        """The 17 styles of the contract (0 plain, ``style_index(colour, material)`` recoloured) as a normalised
+        log-likelihood ``[M, 17]``: log p(look | crop) minus the log training frequency of the look, plus the
+        conditional colour and material log-probabilities."""
+        look = part_logp["recoloured"] - self.part_prior.log()
+        out = look.new_empty((look.shape[0], NUM_STYLES))
+        out[:, 0] = look[:, 0]
+        cols = STYLE_COLUMN.to(look.device)
+        out[:, cols] = (look[:, 1:2] + part_logp["color"][:, STYLE_COLOR.to(look.device)]
+                        + part_logp["material"][:, STYLE_MATERIAL.to(look.device)])
+        return torch.log_softmax(out, -1)
+
+    @torch.no_grad()
+    def part_style_table(self, image: Any, object_masks: torch.Tensor,
+                         part_maps: Mapping[tuple[int, int], torch.Tensor], min_pixels: int = 1) -> torch.Tensor:
+        """``SceneEvidence.part_style_loglik`` ``[N, 21, P, 17]`` (float64, on this module's device).
+
+        ``part_maps[(n, s)]`` is an integer map ``[H, W]`` of the part ids (``ontology.PARTS[SUBTYPES[s]]``
+        positions; -1 elsewhere) that proposal n's mesh shows under subtype hypothesis s (visible pixels only).
+        Slots with fewer than ``min_pixels`` pixels, and hypotheses not in ``part_maps``, stay 0 (no reading)."""
+        pixels = _as_pixels(image, self.device)
+        object_masks = _check_masks(object_masks, pixels, "object_masks")
+        n = object_masks.shape[0]
+        table = torch.zeros((n, S, P, NUM_STYLES), dtype=DTYPE, device=self.device)
+        if not part_maps or n == 0:
+            return table
+        keys = sorted(part_maps)
+        for ni, si in keys:
+            if not (0 <= ni < n and 0 <= si < S):
+                raise InputError("part_maps", f"key {(ni, si)}: expected (proposal in 0..{n - 1}, subtype in "
+                                              f"0..{S - 1})")
+        planes = torch.stack([torch.as_tensor(part_maps[k], device=self.device).long() for k in keys])
+        if tuple(planes.shape[1:]) != tuple(pixels.shape[1:]):
+            raise InputError("part_maps", f"expected [H, W] = {list(pixels.shape[1:])} maps, got "
+                                          f"{list(planes.shape[1:])}")
+        rows, boxes, counts = [], [], []
+        for k, (_, si) in enumerate(keys):
+            b, c = label_boxes(planes[k], len(ontology.PARTS[ontology.SUBTYPES[si]]))
+            for p in torch.nonzero(c >= min_pixels).flatten().tolist():
+                rows.append((k, p))
+                boxes.append(b[p])
+                counts.append(c[p])
+        if not rows:
+            return table
+        plane_index = torch.tensor([r[0] for r in rows], device=self.device)
+        values = torch.tensor([r[1] for r in rows], device=self.device)
+        owner = torch.tensor([keys[r[0]][0] for r in rows], device=self.device)
+        objects = self._objects(pixels, object_masks, True)
+        logp = self._parts(pixels, planes, plane_index, values, torch.stack(boxes), torch.stack(counts),
+                           object_masks, owner, True, objects)
+        subtype = torch.tensor([keys[r[0]][1] for r in rows], device=self.device)
+        table[owner, subtype, values] = logp["style"].to(DTYPE)
+        return table
+
+    # -- calibration --------------------------------------------------------------------------------------------------
+
+    def fit_temperatures(self, object_logits: Mapping[str, torch.Tensor], object_labels: Mapping[str, torch.Tensor],
+                         part_logits: Mapping[str, torch.Tensor], part_labels: Mapping[str, torch.Tensor]
+                         ) -> dict[str, float]:
+        """Fit one temperature per head by minimising the NLL of held-out logits (labels -1 are skipped, e.g. the
+        colour of a plain part), and store them. Returns the temperatures."""
+        for i, h in enumerate(OBJECT_HEADS):
+            self.object_temperature[i] = fit_temperature(object_logits[h], object_labels[h])
+        for i, h in enumerate(PART_HEADS):
+            self.part_temperature[i] = fit_temperature(part_logits[h], part_labels[h])
+        return self.temperatures()
+
+
+def fit_temperature(logits: torch.Tensor, labels: torch.Tensor, low: float = 0.05, high: float = 20.0,
+                    steps: int = 241) -> float:
+    """The temperature in [low, high] (log-spaced grid, then a finer grid around the best) that minimises the NLL.
+
+    A grid rather than gradient descent: one scalar, deterministic, no learning rate to tune, and NLL(T) is
+    unimodal in log T in practice."""
+    keep = labels >= 0
+    logits, labels = logits[keep].double(), labels[keep]
+    if labels.numel() == 0:
+        return 1.0
+
+    def best(grid: torch.Tensor) -> float:
+        nll = torch.stack([F.cross_entropy(logits / t, labels) for t in grid])
+        return float(grid[int(torch.argmin(nll))])
+
+    coarse = best(torch.logspace(math.log10(low), math.log10(high), steps, dtype=torch.float64))
+    ratio = (high / low) ** (1.0 / (steps - 1))
+    return best(torch.logspace(math.log10(coarse / ratio), math.log10(coarse * ratio), 41, dtype=torch.float64))
+
+
+def expected_calibration_error(logp: torch.Tensor, labels: torch.Tensor, bins: int = 15) -> float:
+    """ECE of the top-1 prediction over ``bins`` equal-width confidence bins (labels -1 are skipped)."""
+    keep = labels >= 0
+    if not keep.any():
+        return float("nan")
+    conf, pred = logp[keep].exp().max(-1)
+    correct = (pred == labels[keep]).double()
+    which = torch.clamp((conf * bins).long(), max=bins - 1)
+    total = torch.zeros(bins, dtype=torch.float64).scatter_add_(0, which.cpu(), torch.ones_like(correct).cpu())
+    acc = torch.zeros(bins, dtype=torch.float64).scatter_add_(0, which.cpu(), correct.cpu())
+    cs = torch.zeros(bins, dtype=torch.float64).scatter_add_(0, which.cpu(), conf.double().cpu())
+    used = total > 0
+    return float(((acc[used] - cs[used]).abs()).sum() / total.sum())
+
+
+# --- files -----------------------------------------------------------------------------------------------------------
+
+
+def save_attribute_net(net: AttributeNet, directory: Path | str, **manifest: Any) -> Path:
+    """Write ``net`` to ``directory/attributes.safetensors`` and record it (this key only) in the directory's
+    manifest with ``manifest`` (command, data seed, metrics ...)."""
+    from safetensors.torch import save_file
+
+    from po3d_ppl.model_store import write_entry
+
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    tensors = {k: v.detach().cpu().contiguous() for k, v in net.state_dict().items()}
+    meta = {"format": str(FORMAT), "config": json.dumps(net.config.to_dict()),
+            "heads": json.dumps({"object": dict(OBJECT_HEADS), "part": dict(PART_HEADS)})}
+    path = directory / WEIGHTS
+    save_file(tensors, str(path), metadata=meta)
+    path.chmod(0o644)
+    write_entry(MODEL_NAME, [path], directory, **manifest)
+    return path
+
+
+def load_attribute_net(directory: Path | str | None = None, device: torch.device | str = "cpu") -> AttributeNet:
+    """The shipped attribute network (or the one in ``directory``), checked against the manifest (sha256, size)
+    and against today's ontology (head orderings); in eval mode on ``device``."""
+    from safetensors import safe_open
+
+    from po3d_ppl.model_store import model_files, models_dir
+
+    directory = Path(directory) if directory is not None else models_dir()
+    path = model_files(MODEL_NAME, directory, RETRAIN)[WEIGHTS]
+    try:
+        with safe_open(str(path), framework="pt") as f:
+            meta = f.metadata() or {}
+            tensors = {k: f.get_tensor(k) for k in f.keys()}  # noqa: SIM118 (safe_open is no dict)
+        if meta.get("format") != str(FORMAT):
+            raise ModelFileError(f"{path}: format {meta.get('format')!r}, expected {FORMAT}; {RETRAIN}")
+        heads = json.loads(meta["heads"])
+        now = {"object": {k: list(v) for k, v in OBJECT_HEADS.items()},
+               "part": {k: list(v) for k, v in PART_HEADS.items()}}
+        if heads != now:
+            raise ModelFileError(f"{path}: trained on other class orderings than po3d_ppl.ontology's today; {RETRAIN}")
+        net = AttributeNet(AttributeConfig.from_dict(json.loads(meta["config"])))
+        net.load_state_dict(tensors)
+    except ModelFileError:
+        raise
+    except (OSError, ValueError, KeyError, TypeError, RuntimeError) as exc:
+        raise ModelFileError(f"cannot load the attribute network from {path} ({exc}); {RETRAIN}") from None
+    return net.to(device).eval()

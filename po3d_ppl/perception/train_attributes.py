@@ -1,0 +1,570 @@
+"""Training, calibrating and measuring the attribute network (:mod:`po3d_ppl.perception.attributes`) on a dataset
+built by ``po3d dataset build``.
+
+**Supervision (training only).** Each object's crop is cut around its ground-truth visible mask (the RLE of the
+scene file's ``obj_mask_box``), each part's around its own stored visible mask, with exactly the functions the
+inference API uses (:func:`~po3d_ppl.perception.attributes.object_inputs`, ``part_inputs``). Labels: the object's
+subtype, colour, material and size; a part is *recoloured* when the scene's ``parts`` field lists it, and then has
+that colour and material. Parts with fewer than ``min_part_pixels`` visible pixels are left out (the world only
+recolours parts it shows with >= 20 pixels, and a 3-pixel crop says nothing).
+
+**Crop cache.** Decoding masks and cutting crops takes a few seconds per hundred images; the crops of each split
+are stored once as safetensors under ``<data>/../attribute_crops/`` keyed by the sha256 of ``scenes.json``, the
+crop geometry and ``min_part_pixels``, so retraining and evaluating read them back in a second.
+
+**Training.** One step = one batch of objects and a proportional batch of parts (one pass over each per epoch),
+cross entropy on every head (part colour and material on recoloured parts only), AdamW with a one-cycle schedule.
+Augmentation: horizontal flips (attributes are mirror-invariant; the geometry's x terms are mirrored too) and
+one-pixel dilation or erosion of the mask channels (the parser's masks will not be the ground truth's). The part
+head's object reference is the ground truth's colour and material, smoothed. Image order and augmentation come
+from one ``torch.Generator`` seeded by ``TrainConfig.seed``, initialisation from ``torch.manual_seed(seed)``: the
+same seed, data and thread count give bit-identical weights.
+
+**Calibration.** After training, one temperature per head is fitted on the validation split's crops, with the
+part head's reference taken from the object head's own (calibrated) output, as at inference.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+from po3d_ppl import ontology
+from po3d_ppl.errors import InputError
+from po3d_ppl.perception.attributes import (
+    OBJECT_HEADS,
+    PART_HEADS,
+    AttributeConfig,
+    AttributeNet,
+    expected_calibration_error,
+    mask_boxes,
+    object_inputs,
+    part_inputs,
+)
+
+#: Parts smaller than this (visible pixels) are not trained on.
+MIN_TRAIN_PART_PIXELS = 5
+#: Parts are measured from this many visible pixels: the world's ``SceneConfig.min_part_pixels``, the smallest part
+#: it may recolour.
+MEASURE_PART_PIXELS = 20
+CACHE_FORMAT = 1
+
+
+# --- crops of a dataset ----------------------------------------------------------------------------------------------
+
+
+@dataclass
+class AttributeData:
+    """Crops and labels of one split. Objects: ``object_crops`` uint8 [No, 4, s, s], ``object_geometry`` [No, 6],
+    ``object_labels`` [No, 4] (subtype, colour, material, size ids), ``object_image`` [No]. Parts: ``part_crops``
+    uint8 [Np, 5, s', s'], ``part_geometry`` [Np, 5], ``part_labels`` [Np, 3] (recoloured, colour, material; -1 for
+    the colour and material of plain parts), ``part_owner`` [Np] (row in the objects), ``part_pixels`` [Np]."""
+
+    object_crops: torch.Tensor
+    object_geometry: torch.Tensor
+    object_labels: torch.Tensor
+    object_image: torch.Tensor
+    part_crops: torch.Tensor
+    part_geometry: torch.Tensor
+    part_labels: torch.Tensor
+    part_owner: torch.Tensor
+    part_pixels: torch.Tensor
+
+    @property
+    def num_objects(self) -> int:
+        return int(self.object_labels.shape[0])
+
+    @property
+    def num_parts(self) -> int:
+        return int(self.part_labels.shape[0])
+
+    def object_label(self, head: str) -> torch.Tensor:
+        return self.object_labels[:, list(OBJECT_HEADS).index(head)]
+
+    def part_label(self, head: str) -> torch.Tensor:
+        return self.part_labels[:, list(PART_HEADS).index(head)]
+
+    @classmethod
+    def concat(cls, items: Sequence[AttributeData]) -> AttributeData:
+        offsets = np.cumsum([0] + [d.num_objects for d in items])[:-1]
+        out = {}
+        for f in fields(cls):
+            parts = [getattr(d, f.name) for d in items]
+            if f.name == "part_owner":
+                parts = [p + int(o) for p, o in zip(parts, offsets)]
+            out[f.name] = torch.cat(parts)
+        return cls(**out)
+
+
+def _uint8(x: torch.Tensor) -> torch.Tensor:
+    return (x.clamp(0, 1) * 255).round().to(torch.uint8)
+
+
+def scene_masks(scene, height: int, width: int) -> tuple[torch.Tensor, list[tuple[int, str, torch.Tensor]]]:
+    """Ground-truth visible masks of a scene's objects ``[N, H, W]`` and of its parts (object row, raw name, mask),
+    decoded from the scene file's RLE."""
+    from po3d_ppl.world import rle
+
+    objects, parts = [], []
+    for i, obj in enumerate(scene.objects):
+        if obj.annotation is None or obj.annotation.visible_mask is None:
+            raise InputError("scene", f"{scene.image_filename}: object {i} has no visible mask; attribute training "
+                                      "needs scenes written by `po3d dataset build`")
+        objects.append(torch.from_numpy(rle.decode(obj.annotation.visible_mask, height, width)))
+        for raw in ontology.PARTS[obj.subtype]:
+            ann = obj.part_annotations.get(raw)
+            if ann is not None and ann.visible_mask is not None and ann.visible_pixels > 0:
+                parts.append((i, raw, torch.from_numpy(rle.decode(ann.visible_mask, height, width))))
+    stacked = torch.stack(objects) if objects else torch.zeros((0, height, width), dtype=torch.bool)
+    return stacked, parts
+
+
+def scene_data(pixels: torch.Tensor, scene, config: AttributeConfig, image: int = 0,
+               min_part_pixels: int = MIN_TRAIN_PART_PIXELS) -> AttributeData:
+    """Crops and labels of one image (``pixels`` float [3, H, W] in [0, 1])."""
+    h, w = pixels.shape[1:]
+    masks, parts = scene_masks(scene, h, w)
+    objs = object_inputs(pixels, masks, config)
+    parts = [p for p in parts if int(p[2].sum()) >= min_part_pixels]
+    n = len(scene.objects)
+    labels = torch.tensor([[ontology.SUBTYPES.index(o.subtype), ontology.COLORS.index(o.color),
+                            ontology.MATERIALS.index(o.material), ontology.SIZES.index(o.size)]
+                           for o in scene.objects], dtype=torch.long).reshape(n, len(OBJECT_HEADS))
+    if parts:
+        part_masks = torch.stack([p[2] for p in parts])
+        owner = torch.tensor([p[0] for p in parts])
+        boxes, counts = mask_boxes(part_masks)
+        idx = torch.arange(len(parts))
+        crops, geometry = part_inputs(pixels, part_masks, idx, torch.ones_like(idx, dtype=torch.bool), boxes, counts,
+                                      objs, masks, owner, config)
+        plabels = []
+        for i, raw, _ in parts:
+            style = scene.objects[i].parts.get(raw)
+            plabels.append([1, ontology.COLORS.index(style.color), ontology.MATERIALS.index(style.material)]
+                           if style else [0, -1, -1])
+        plabels = torch.tensor(plabels, dtype=torch.long)
+    else:
+        s = config.part_size
+        crops, geometry = torch.zeros((0, 5, s, s)), torch.zeros((0, 5))
+        owner, counts, plabels = (torch.zeros(0, dtype=torch.long), torch.zeros(0, dtype=torch.long),
+                                  torch.zeros((0, 3), dtype=torch.long))
+    return AttributeData(_uint8(objs.crops), objs.geometry.float(), labels, torch.full((n,), image),
+                         _uint8(crops), geometry.float(), plabels, owner, counts.long())
+
+
+def _dataset_root(data: Path | str) -> Path:
+    root = Path(data)
+    for needed in ("scenes.json", "splits.json", "images"):
+        if not (root / needed).exists():
+            raise InputError("--data", f"{root} has no {needed}; build a dataset with `po3d dataset build --out {root}`")
+    return root
+
+
+def split_indices(data: Path | str, splits: Sequence[str]) -> list[int]:
+    root = _dataset_root(data)
+    split_map = json.loads((root / "splits.json").read_text())
+    unknown = [s for s in splits if s not in split_map]
+    if unknown:
+        raise InputError("splits", f"{unknown} not in {root / 'splits.json'} (it has {sorted(split_map)})")
+    return sorted(i for s in splits for i in split_map[s])
+
+
+def _cache_path(root: Path, split: str, config: AttributeConfig, min_part_pixels: int, cache: Path | None) -> Path:
+    digest = hashlib.sha256()
+    with open(root / "scenes.json", "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            digest.update(chunk)
+    geometry = {k: v for k, v in config.to_dict().items() if not k.endswith("widths") and k != "hidden"}
+    key = hashlib.sha256(json.dumps([CACHE_FORMAT, digest.hexdigest(), geometry, min_part_pixels],
+                                    sort_keys=True).encode()).hexdigest()[:16]
+    directory = Path(cache) if cache is not None else root.resolve().parent / "attribute_crops"
+    return directory / f"{root.resolve().name}-{split}-{key}.safetensors"
+
+
+def load_split(data: Path | str, split: str, config: AttributeConfig | None = None, *,
+               min_part_pixels: int = MIN_TRAIN_PART_PIXELS, cache: Path | str | None = None, use_cache: bool = True,
+               progress: Callable[[int, int], None] | None = None) -> AttributeData:
+    """The crops of one split of a dataset directory, from the cache or cut (and cached) now."""
+    from safetensors.torch import load_file, save_file
+
+    from po3d_ppl.perception.image_input import load_image
+    from po3d_ppl.world.scene_io import load_scenes
+
+    config = config or AttributeConfig()
+    root = _dataset_root(data)
+    indices = split_indices(root, [split])
+    path = _cache_path(root, split, config, min_part_pixels, Path(cache) if cache is not None else None)
+    if use_cache and path.exists():
+        tensors = load_file(str(path))
+        if progress is not None:
+            progress(len(indices), len(indices))
+        return AttributeData(**{f.name: tensors[f.name] for f in fields(AttributeData)})
+    scenes = load_scenes(root / "scenes.json")
+    items = []
+    for n, i in enumerate(indices):
+        scene = scenes[i]
+        image = load_image(root / "images" / scene.image_filename, size=_native_size(scene))
+        items.append(scene_data(image.pixels, scene, config, i, min_part_pixels))
+        if progress is not None:
+            progress(n + 1, len(indices))
+    out = AttributeData.concat(items) if items else scene_data(torch.zeros(3, 8, 8), _empty_scene(), config)
+    if use_cache:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".tmp")
+        save_file({f.name: getattr(out, f.name).contiguous() for f in fields(AttributeData)}, str(tmp),
+                  metadata={"data": str(root.resolve()), "split": split, "config": json.dumps(config.to_dict()),
+                            "min_part_pixels": str(min_part_pixels)})
+        tmp.replace(path)
+    return out
+
+
+def _native_size(scene) -> tuple[int, int]:
+    """(width, height) the scene was rendered at (its masks' size): images are read at it, never resized."""
+    from po3d_ppl.perception.image_input import WORKING_SIZE
+
+    return (scene.camera.width, scene.camera.height) if scene.camera is not None else WORKING_SIZE
+
+
+def _empty_scene():
+    from po3d_ppl.world.scene import Scene
+
+    return Scene(objects=(), directions={}, relationships={})
+
+
+# --- training --------------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Training settings (all stored in the model's manifest entry)."""
+
+    seed: int = 0
+    epochs: int = 24
+    #: Objects per step; each step also takes ceil(part_fraction * parts / steps) parts.
+    batch_size: int = 32
+    #: Fraction of the parts seen per epoch (a random subset each epoch: parts outnumber objects 12 to 1).
+    part_fraction: float = 0.5
+    lr: float = 3e-3
+    weight_decay: float = 1e-4
+    #: The ground-truth object look given to the part head is (1 - smoothing) one-hot + smoothing / K.
+    reference_smoothing: float = 0.1
+    flip: bool = True
+    #: Probability of dilating (and, separately, of eroding) a crop's mask channels by one pixel.
+    mask_jitter: float = 0.25
+    max_steps: int | None = None
+    net: AttributeConfig = field(default_factory=AttributeConfig)
+
+    def __post_init__(self) -> None:
+        for name in ("epochs", "batch_size"):
+            if getattr(self, name) < 1:
+                raise InputError(name, f"must be at least 1, got {getattr(self, name)}")
+        if not 0 < self.part_fraction <= 1:
+            raise InputError("part_fraction", f"must be in (0, 1], got {self.part_fraction}")
+        if not 0 <= self.reference_smoothing < 1:
+            raise InputError("reference_smoothing", f"must be in [0, 1), got {self.reference_smoothing}")
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["net"] = self.net.to_dict()
+        return d
+
+
+def _augment(crops: torch.Tensor, geometry: torch.Tensor, mirror: Callable[[torch.Tensor], torch.Tensor],
+             config: TrainConfig, g: torch.Generator) -> tuple[torch.Tensor, torch.Tensor]:
+    """Random flips (geometry mirrored by ``mirror``) and one-pixel mask dilation/erosion, per sample."""
+    b = crops.shape[0]
+    if config.flip:
+        flip = torch.rand(b, generator=g) < 0.5
+        crops = torch.where(flip[:, None, None, None], crops.flip(-1), crops)
+        geometry = torch.where(flip[:, None], mirror(geometry), geometry)
+    if config.mask_jitter > 0:
+        u = torch.rand(b, generator=g)
+        masks = crops[:, 3:]
+        grown = F.max_pool2d(masks, 3, 1, 1)
+        shrunk = -F.max_pool2d(-masks, 3, 1, 1)
+        masks = torch.where((u < config.mask_jitter)[:, None, None, None], grown,
+                            torch.where((u > 1 - config.mask_jitter)[:, None, None, None], shrunk, masks))
+        crops = torch.cat([crops[:, :3], masks], 1)
+    return crops, geometry
+
+
+def _mirror_object(geometry: torch.Tensor) -> torch.Tensor:
+    out = geometry.clone()
+    out[:, 0] = 1 - out[:, 0]
+    return out
+
+
+def _mirror_part(geometry: torch.Tensor) -> torch.Tensor:
+    out = geometry.clone()
+    out[:, 3] = -out[:, 3]
+    return out
+
+
+def ground_truth_reference(data: AttributeData, owner: torch.Tensor, smoothing: float) -> torch.Tensor:
+    """Smoothed one-hot colour and material of each part's object ``[M, REFERENCE]``."""
+    color = F.one_hot(data.object_label("color")[owner], len(ontology.COLORS)).float()
+    material = F.one_hot(data.object_label("material")[owner], len(ontology.MATERIALS)).float()
+    color = color * (1 - smoothing) + smoothing / len(ontology.COLORS)
+    material = material * (1 - smoothing) + smoothing / len(ontology.MATERIALS)
+    return torch.cat([color, material], 1)
+
+
+def _losses(net: AttributeNet, data: AttributeData, objects: torch.Tensor, parts: torch.Tensor, config: TrainConfig,
+            g: torch.Generator, device: torch.device) -> dict[str, torch.Tensor]:
+    crops, geom = _augment(data.object_crops[objects].float() / 255, data.object_geometry[objects], _mirror_object,
+                           config, g)
+    out = net.object_logits(crops.to(device), geom.to(device))
+    labels = data.object_labels[objects].to(device)
+    losses = {f"object.{h}": F.cross_entropy(out[h], labels[:, i]) for i, h in enumerate(OBJECT_HEADS)}
+    if parts.numel():
+        crops, geom = _augment(data.part_crops[parts].float() / 255, data.part_geometry[parts], _mirror_part, config,
+                               g)
+        ref = ground_truth_reference(data, data.part_owner[parts], config.reference_smoothing)
+        out = net.part_logits(crops.to(device), geom.to(device), ref.to(device))
+        labels = data.part_labels[parts].to(device)
+        for i, h in enumerate(PART_HEADS):
+            keep = labels[:, i] >= 0
+            losses[f"part.{h}"] = (F.cross_entropy(out[h][keep], labels[keep, i]) if keep.any()
+                                   else out[h].sum() * 0)
+    return losses
+
+
+@dataclass
+class TrainedAttributes:
+    net: AttributeNet
+    history: list[dict]
+    seconds: float
+    step_seconds: float
+    steps: int
+
+
+def train_attributes(data: AttributeData, config: TrainConfig = TrainConfig(), *, device: torch.device | str = "cpu",
+                     progress: Callable[[int, int, dict], None] | None = None) -> TrainedAttributes:
+    """Train an :class:`AttributeNet` from scratch on ``data`` (temperatures stay 1; see :func:`calibrate`)."""
+    if data.num_objects == 0:
+        raise InputError("data", "has no objects to train on")
+    device = torch.device(device)
+    torch.manual_seed(config.seed)
+    net = AttributeNet(config.net).to(device)
+    recoloured = data.part_label("recoloured")
+    if recoloured.numel():
+        rate = float(recoloured.float().mean())
+        net.part_prior.copy_(torch.tensor([1 - rate, rate]))
+    g = torch.Generator().manual_seed(config.seed)
+    steps_per_epoch = math.ceil(data.num_objects / config.batch_size)
+    part_batch = math.ceil(config.part_fraction * data.num_parts / steps_per_epoch) if data.num_parts else 0
+    total = steps_per_epoch * config.epochs
+    if config.max_steps is not None:
+        total = min(total, config.max_steps)
+    opt = torch.optim.AdamW(net.parameters(), lr=config.lr, weight_decay=config.weight_decay)
+    sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=config.lr, total_steps=total, pct_start=0.15)
+    history: list[dict] = []
+    start, step, running, count = time.perf_counter(), 0, {}, 0
+    net.train()
+    while step < total:
+        obj_order = torch.randperm(data.num_objects, generator=g)
+        part_order = torch.randperm(data.num_parts, generator=g)
+        for k in range(steps_per_epoch):
+            if step >= total:
+                break
+            objects = obj_order[k * config.batch_size:(k + 1) * config.batch_size]
+            parts = part_order[k * part_batch:(k + 1) * part_batch]
+            losses = _losses(net, data, objects, parts, config, g, device)
+            loss = sum(losses.values())
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            opt.step()
+            sched.step()
+            step += 1
+            count += 1
+            for name, v in losses.items():
+                running[name] = running.get(name, 0.0) + float(v.detach())
+            running["loss"] = running.get("loss", 0.0) + float(loss.detach())
+            if step % steps_per_epoch == 0 or step == total:
+                record = {k: v / count for k, v in running.items()}
+                record |= {"step": step, "epoch": step / steps_per_epoch,
+                           "seconds": round(time.perf_counter() - start, 1)}
+                history.append(record)
+                running, count = {}, 0
+            if progress is not None:
+                progress(step, total, {"epoch": step / steps_per_epoch,
+                                       "loss": history[-1]["loss"] if history else float(loss.detach())})
+    seconds = time.perf_counter() - start
+    net.eval()
+    return TrainedAttributes(net, history, seconds, seconds / max(step, 1), step)
+
+
+# --- calibration and measurement on cached crops -------------------------------------------------------------------
+
+
+@torch.no_grad()
+def crop_logits(net: AttributeNet, data: AttributeData, chunk: int = 512
+                ) -> tuple[dict[str, torch.Tensor], dict[str, torch.Tensor]]:
+    """Uncalibrated logits of every object and part of ``data``; the part head's reference is the object head's
+    calibrated output for the part's object (as at inference)."""
+    net.eval()
+    device = net.device
+    obj: dict[str, list[torch.Tensor]] = {h: [] for h in OBJECT_HEADS}
+    for i in range(0, data.num_objects, chunk):
+        out = net.object_logits(data.object_crops[i:i + chunk].to(device).float() / 255,
+                                data.object_geometry[i:i + chunk].to(device))
+        for h in OBJECT_HEADS:
+            obj[h].append(out[h].cpu())
+    objects = {h: torch.cat(v) if v else torch.zeros(0, len(OBJECT_HEADS[h])) for h, v in obj.items()}
+    reference = net.reference({h: v.to(device) for h, v in net.calibrate(
+        {h: v.to(device) for h, v in objects.items()}, "object").items()}).cpu()
+    part: dict[str, list[torch.Tensor]] = {h: [] for h in PART_HEADS}
+    for i in range(0, data.num_parts, chunk):
+        owner = data.part_owner[i:i + chunk]
+        out = net.part_logits(data.part_crops[i:i + chunk].to(device).float() / 255,
+                              data.part_geometry[i:i + chunk].to(device), reference[owner].to(device))
+        for h in PART_HEADS:
+            part[h].append(out[h].cpu())
+    parts = {h: torch.cat(v) if v else torch.zeros(0, len(PART_HEADS[h])) for h, v in part.items()}
+    return objects, parts
+
+
+def calibrate(net: AttributeNet, val: AttributeData) -> dict[str, Any]:
+    """Fit the temperatures on ``val`` and report each head's ECE and NLL before and after."""
+    net.object_temperature.fill_(1.0)
+    net.part_temperature.fill_(1.0)
+    objects, parts = crop_logits(net, val)
+    obj_labels = {h: val.object_label(h) for h in OBJECT_HEADS}
+    part_labels = {h: val.part_label(h) for h in PART_HEADS}
+    before = calibration_report(net, objects, obj_labels, parts, part_labels)
+    temps = net.fit_temperatures(objects, obj_labels, parts, part_labels)
+    objects, parts = crop_logits(net, val)  # the part reference now uses the calibrated object head
+    after = calibration_report(net, objects, obj_labels, parts, part_labels)
+    return {"temperatures": temps, "val_before": before, "val_after": after}
+
+
+def calibration_report(net: AttributeNet, objects: Mapping[str, torch.Tensor], obj_labels: Mapping[str, torch.Tensor],
+                       parts: Mapping[str, torch.Tensor], part_labels: Mapping[str, torch.Tensor],
+                       calibrated: bool = True) -> dict[str, dict[str, float]]:
+    """ECE and NLL per head of logits (with the net's current temperatures, or T = 1)."""
+    out = {}
+    for level, logits, labels in (("object", objects, obj_labels), ("part", parts, part_labels)):
+        logp = net.calibrate({h: v.to(net.device) for h, v in logits.items()}, level, calibrated)
+        for h, lp in logp.items():
+            y = labels[h].to(lp.device)
+            keep = y >= 0
+            nll = float(F.nll_loss(lp[keep], y[keep])) if keep.any() else float("nan")
+            out[f"{level}.{h}"] = {"ece": round(expected_calibration_error(lp, y), 4), "nll": round(nll, 4)}
+    return out
+
+
+# --- measurement through the public API ------------------------------------------------------------------------------
+
+
+@dataclass
+class _Tally:
+    """Correct / total counts keyed by measure and group."""
+
+    counts: dict[str, dict[str, list[int]]] = field(default_factory=dict)
+
+    def add(self, measure: str, group: str, correct: torch.Tensor) -> None:
+        slot = self.counts.setdefault(measure, {}).setdefault(group, [0, 0])
+        slot[0] += int(correct.sum())
+        slot[1] += int(correct.numel())
+
+    def report(self) -> dict[str, dict[str, float | int]]:
+        return {m: {g: round(c / t, 4) if t else float("nan") for g, (c, t) in groups.items()} |
+                {f"n_{g}": t for g, (_, t) in groups.items() if g == "all"} for m, groups in self.counts.items()}
+
+
+def evaluate_dataset(net: AttributeNet, data: Path | str, splits: Sequence[str] = ("train", "val", "test"),
+                     limit: int | None = None, progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+    """Accuracy of every head on the images of ``splits`` (all of them by default) through the public API, with
+    the ground-truth visible masks as the parser's masks: objects per category; parts over visible parts with
+    >= ``MEASURE_PART_PIXELS`` pixels (and, separately, all visible parts), per category. ECE of every head with
+    T = 1 and with the fitted temperatures."""
+    from po3d_ppl.perception.image_input import load_image
+    from po3d_ppl.world.scene_io import load_scenes
+
+    root = _dataset_root(data)
+    indices = split_indices(root, splits)[:limit]
+    scenes = load_scenes(root / "scenes.json")
+    tally = _Tally()
+    collected: dict[str, dict[str, list[torch.Tensor]]] = {"raw": {}, "label": {}}
+    start = time.perf_counter()
+    for n, i in enumerate(indices):
+        scene = scenes[i]
+        image = load_image(root / "images" / scene.image_filename, size=_native_size(scene), device=net.device)
+        h, w = image.pixels.shape[1:]
+        masks, parts = scene_masks(scene, h, w)
+        cats = [ontology.CATEGORY_OF[o.subtype] for o in scene.objects]
+        raw = net.object_loglik(image, masks, calibrated=False)
+        logp = net.calibrate(raw, "object")
+        for k, head in enumerate(OBJECT_HEADS):
+            truth = torch.tensor([[ontology.SUBTYPES.index(o.subtype), ontology.COLORS.index(o.color),
+                                   ontology.MATERIALS.index(o.material), ontology.SIZES.index(o.size)][k]
+                                  for o in scene.objects])
+            correct = logp[head].argmax(-1).cpu() == truth
+            _collect(collected, f"object.{head}", raw[head], truth)
+            tally.add(f"object.{head}", "all", correct)
+            for c in set(cats):
+                tally.add(f"object.{head}", c, correct[torch.tensor([x == c for x in cats])])
+        if parts:
+            part_masks = torch.stack([p[2] for p in parts])
+            owner = torch.tensor([p[0] for p in parts])
+            praw = net.part_loglik(image, part_masks, masks, owner, calibrated=False)
+            plogp = net.calibrate(praw, "part")
+            _tally_parts(tally, collected, scene, parts, praw, plogp)
+        if progress is not None:
+            progress(n + 1, len(indices))
+    ece = {}
+    for name, raws in collected["raw"].items():
+        level, head = name.split(".")
+        lp = torch.cat(raws)
+        y = torch.cat(collected["label"][name])
+        cal = net.calibrate({head: lp.to(net.device)}, level)
+        ece[name] = {"before": round(expected_calibration_error(lp, y), 4),
+                     "after": round(expected_calibration_error(cal[head].cpu(), y), 4)}
+    return {"images": len(indices), "objects": tally.report(), "ece": ece, "temperatures": net.temperatures(),
+            "masks": "ground-truth visible masks (object and part) stand in for the parser's",
+            "measured_part_pixels": MEASURE_PART_PIXELS, "seconds": round(time.perf_counter() - start, 1)}
+
+
+def _collect(collected, name: str, raw: torch.Tensor, truth: torch.Tensor) -> None:
+    collected["raw"].setdefault(name, []).append(raw.cpu())
+    collected["label"].setdefault(name, []).append(truth)
+
+
+def _tally_parts(tally: _Tally, collected, scene, parts, praw, plogp) -> None:
+    """Part measures: the look (plain vs recoloured), colour and material of recoloured parts, and the whole style
+    (plain, or recoloured with the right colour and material; the posterior's argmax over the 17 styles)."""
+    pixels = torch.tensor([int(p[2].sum()) for p in parts])
+    styles = [scene.objects[i].parts.get(raw) for i, raw, _ in parts]
+    look = torch.tensor([int(s is not None) for s in styles])
+    color = torch.tensor([ontology.COLORS.index(s.color) if s else -1 for s in styles])
+    material = torch.tensor([ontology.MATERIALS.index(s.material) if s else -1 for s in styles])
+    cats = [ontology.CATEGORY_OF[scene.objects[i].subtype] for i, _, _ in parts]
+    lp = {h: v.cpu() for h, v in plogp.items()}
+    pred_look = lp["recoloured"].argmax(-1)
+    pred_color, pred_material = lp["color"].argmax(-1), lp["material"].argmax(-1)
+    # posterior argmax over the 17 styles: plain, or the best (colour, material) if recoloured wins
+    best_rec = lp["recoloured"][:, 1] + lp["color"].max(-1).values + lp["material"].max(-1).values
+    plain = lp["recoloured"][:, 0] >= best_rec
+    style_ok = torch.where(look == 0, plain, ~plain & (pred_color == color) & (pred_material == material))
+    measured = pixels >= MEASURE_PART_PIXELS
+    rec = look == 1
+    for suffix, keep in (("", measured), ("_all_visible", torch.ones_like(measured))):
+        for name, correct, sel in (("part.look", pred_look == look, keep),
+                                   ("part.color", pred_color == color, keep & rec),
+                                   ("part.material", pred_material == material, keep & rec),
+                                   ("part.style", style_ok, keep)):
+            tally.add(name + suffix, "all", correct[sel])
+            for c in set(cats):
+                tally.add(name + suffix, c, correct[sel & torch.tensor([x == c for x in cats])])
+    for head, truth in (("recoloured", look), ("color", color), ("material", material)):
+        _collect(collected, f"part.{head}", praw[head][measured.to(praw[head].device)], truth[measured])
