@@ -24,6 +24,8 @@ def answer(
     joint: bool = typer.Option(False, "--joint", help="The joint distribution with its invalid outcome, instead of "
                                                       "the answers given the question's presuppositions."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of a table."),
+    semantics: str = typer.Option("intended", "--semantics", help="intended (default) or public: the public "
+                                  "Super-CLEVR-3D code's answers; the evidence then reads the public annotation."),
 ) -> None:
     """Print the answer distribution for QUESTION (or --program) about the scene.
 
@@ -50,7 +52,12 @@ def answer(
     if not 0 < max_gib < 1 << 20:
         raise InputError("--max-gib", f"must be a positive number of GiB, got {max_gib}")
     budget = Budget(max_bytes=max(int(max_gib * 2**30), 1 << 20), max_seconds=max_seconds)
-    reasoner = SceneReasoner(simulated_evidence(load_scene_arg(scene, index), noise=noise, seed=seed))
+    from po3d_ppl.catalogue.semantics import PUBLIC, check_semantics
+    from po3d_ppl.questions.public import public_reading
+
+    truth = load_scene_arg(scene, index)
+    truth = public_reading(truth) if check_semantics(semantics) == PUBLIC else truth
+    reasoner = SceneReasoner(simulated_evidence(truth, noise=noise, seed=seed), semantics=semantics)
     parse = None
     if program is not None:
         dist = reasoner.infer(read_program_arg(program, allow_text=True), method, num_samples=samples, seed=seed,

@@ -22,21 +22,31 @@ _LIMIT = typer.Option(None, "--limit", min=1, help="Only the first N images of t
 _CACHE = typer.Option(None, "--cache", help="Evidence cache directory (default: DATA/eval_cache).")
 _THREADS = typer.Option(1, "--threads", min=1, help="torch CPU threads.")
 _DEVICE = typer.Option("cpu", "--device", help="torch device for the evidence and inference (cpu, cuda).")
+_PERCEPTION = typer.Option("simulated", "--perception",
+                           help="Evidence back-end: simulated (the sensor on the true scene, --noise, --seed) or "
+                                "image (the render-and-compare parser on the pixels; shipped models).")
 
 
 def _progress(console, label: str):
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, \
-        TimeRemainingColumn
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
 
     return Progress(TextColumn(f"[bold]{label}"), BarColumn(), MofNCompleteColumn(), TextColumn("images"),
                     TimeElapsedColumn(), TimeRemainingColumn(), console=console)
 
 
 def _run(data: Path, split: str, methods: str, noise: float, seed: int, limit, cache: Path | None, parse: bool,
-         device: str, threads: int, console, label: str):
+         device: str, threads: int, console, label: str, perception: str = "simulated", semantics: str = "intended"):
     import torch
 
-    from po3d_ppl.evaluation.backends import SimulatedBackend
+    from po3d_ppl.errors import InputError
+    from po3d_ppl.evaluation.backends import ImageBackend, SimulatedBackend
     from po3d_ppl.evaluation.cache import EvidenceCache
     from po3d_ppl.evaluation.runner import evaluate, parse_methods
     from po3d_ppl.questions.dataset import load_dataset
@@ -44,12 +54,15 @@ def _run(data: Path, split: str, methods: str, noise: float, seed: int, limit, c
     torch.set_num_threads(threads)
     chosen = parse_methods(methods)
     dataset = load_dataset(data)
-    backend = SimulatedBackend(noise, seed)
+    if perception not in ("simulated", "image"):
+        raise InputError("--perception", f"{perception!r} is not a back-end; use simulated or image")
+    backend = SimulatedBackend(noise, seed) if perception == "simulated" else ImageBackend()
     store = EvidenceCache(cache if cache is not None else Path(data) / "eval_cache")
     with _progress(console, label) as bar:
         task = bar.add_task(label, total=None)
         run = evaluate(dataset, split, backend, chosen, cache=store, limit=limit, parse=parse, device=device,
-                       progress=lambda done, total: bar.update(task, completed=done, total=total))
+                       progress=lambda done, total: bar.update(task, completed=done, total=total),
+                       semantics=semantics)
     return dataset, run, store
 
 
@@ -62,7 +75,9 @@ def vqa_command(
     parse: bool = typer.Option(False, "--parse", help="Answer through the question parser "
                                                       "(po3d_ppl.pipeline.answer_question) instead of the "
                                                       "ground-truth programs."),
-    cache: Path = _CACHE, device: str = _DEVICE, threads: int = _THREADS,
+    cache: Path = _CACHE, device: str = _DEVICE, threads: int = _THREADS, perception: str = _PERCEPTION,
+    semantics: str = typer.Option("intended", "--semantics", help="intended (default) or public: score against the "
+                                  "public Super-CLEVR-3D code's answers (a dataset built with --semantics public)."),
 ) -> None:
     """Accuracy per question type (the paper's Table 1 columns, CLEVR core, families) and difficulty analysis."""
     from rich.console import Console
@@ -73,7 +88,7 @@ def vqa_command(
 
     console = Console()
     _, run, store = _run(data, split, methods, noise, seed, limit, cache, parse, device, threads, console,
-                         "eval vqa")
+                         "eval vqa", perception, semantics)
     figure = None
     if figures is not None:
         figure = difficulty_plot(difficulty_panels(run), Path(figures) / "difficulty.png")
@@ -106,7 +121,6 @@ def calibration_command(
     from rich.console import Console
 
     from po3d_ppl.errors import InputError
-    from po3d_ppl.evaluation.cache import EvidenceCache
     from po3d_ppl.evaluation.calibration import calibration_markdown, calibration_reports
     from po3d_ppl.evaluation.plots import noise_sweep_plot, reliability_diagrams
     from po3d_ppl.evaluation.report import noise_sweep, sweep_markdown, write_text
@@ -137,8 +151,8 @@ def calibration_command(
         noise_sweep_plot(points, out / "noise_sweep.png", f"split {split}: accuracy and ECE against noise")
         md += ["## Noise sweep", "", sweep_markdown(points), "", "![noise sweep](noise_sweep.png)", ""]
         payload["sweep"] = [p.__dict__ for p in points]
-    md += ["Not done yet: temperature scaling of the evidence tables (fit on val, apply to test) and fitted "
-           "`ScenePriors` against the hand-set ones.", ""]
+    md += [("Not done yet: temperature scaling of the evidence tables (fit on val, apply to test) and fitted "
+           "`ScenePriors` against the hand-set ones."), ""]
     write_text(out / "calibration.json", json.dumps(payload, indent=1, default=str) + "\n")
     write_text(out / "calibration.md", "\n".join(md))
     console.print(calibration_markdown(reports), markup=False, highlight=False, soft_wrap=True)

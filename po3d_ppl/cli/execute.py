@@ -13,6 +13,8 @@ def execute(
                                 help="A JSON program list (or question with a 'program'), or a file holding one."),
     index: int = typer.Option(None, "--index", help="Which scene of a scenes file (its position; default: the "
                                                      "only one)."),
+    semantics: str = typer.Option("intended", "--semantics", help="intended (default) or public: the public "
+                                  "Super-CLEVR-3D code's answers (docs/semantics.md)."),
 ) -> None:
     """Print the reference answer of PROGRAM on the scene (raw value and the public verbalised answer)."""
     from rich.console import Console
@@ -21,7 +23,7 @@ def execute(
     from po3d_ppl.questions.executor import execute as run
     from po3d_ppl.questions.verbalise import verbalise_answer
 
-    result = run(load_scene_arg(scene, index), read_program_arg(program))
+    result = run(load_scene_arg(scene, index), read_program_arg(program), semantics=semantics)
     console = Console()
     if not result.valid:
         console.print(f"invalid: {result.reason}", markup=False, highlight=False)

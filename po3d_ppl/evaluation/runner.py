@@ -170,9 +170,14 @@ class _OnceParser:
 def evaluate(dataset, split: str, backend: EvidenceBackend, methods: Sequence[str] = METHODS, *,
              cache: EvidenceCache | None = None, limit: int | None = None, parse: bool = False, parser=None,
              priors=None, budget=None, device: str = "cpu",
-             progress: Callable[[int, int], None] | None = None) -> EvalRun:
-    """Answer the split's questions (the first ``limit`` images) by every method on one evidence per image."""
+             progress: Callable[[int, int], None] | None = None, semantics: str = "intended") -> EvalRun:
+    """Answer the split's questions (the first ``limit`` images) by every method on one evidence per image, under
+    ``semantics`` (``public``: the dataset must be built with it; the evidence reads the public annotation)."""
+    from po3d_ppl.catalogue.semantics import PUBLIC, check_semantics
+    from po3d_ppl.questions.public import public_reading
     from po3d_ppl.reasoning import SceneReasoner, ScenePriors
+
+    public = check_semantics(semantics) == PUBLIC
 
     methods = tuple(methods)
     for m in methods:
@@ -188,17 +193,18 @@ def evaluate(dataset, split: str, backend: EvidenceBackend, methods: Sequence[st
     records: list[QuestionRecord] = []
     for done, index in enumerate(images):
         scene = dataset.scene(index)
-        observation = Observation(index, dataset.image_path(index), scene)
+        observation = Observation(index, dataset.image_path(index), public_reading(scene) if public else scene)
         start = time.perf_counter()
-        evidence = cache.get(observation.image_path, backend.identity(), lambda: backend.evidence(observation),
+        identity = {**backend.identity(), "semantics": semantics} if public else backend.identity()
+        evidence = cache.get(observation.image_path, identity, lambda: backend.evidence(observation),
                              device=device)
         timings["perception_s"] += time.perf_counter() - start
-        reasoner = SceneReasoner(evidence, priors or ScenePriors())
+        reasoner = SceneReasoner(evidence, priors or ScenePriors(), semantics)
         start = time.perf_counter()
         reasoner.posteriors  # computed once here, so the per-question timings are reasoning alone
         timings["posterior_s"] += time.perf_counter() - start
         for item in by_image[index]:
-            records.append(_answer(item, scene, reasoner, methods, once, budget, timings, failures))
+            records.append(_answer(item, scene, reasoner, methods, once, budget, timings, failures, semantics))
         if progress is not None:
             progress(done + 1, len(images))
     return EvalRun(records, variants_of(methods), backend.identity(), split, len(images), timings,
@@ -211,10 +217,11 @@ def _default_parser():
     return QuestionParser.load()
 
 
-def _answer(item: QuestionItem, scene, reasoner, methods, once, budget, timings, failures) -> QuestionRecord:
+def _answer(item: QuestionItem, scene, reasoner, methods, once, budget, timings, failures,
+            semantics: str = "intended") -> QuestionRecord:
     from po3d_ppl.questions.executor import execute
 
-    reference = execute(scene, item.program)
+    reference = execute(scene, item.program, semantics=semantics)
     if not reference.valid or not _same(reference.answer, item.truth):
         raise InputError("dataset", f"image {item.image_index}, question {item.question_index} "
                                     f"({item.question!r}): the reference executor answers {reference.answer!r}, "
@@ -224,14 +231,14 @@ def _answer(item: QuestionItem, scene, reasoner, methods, once, budget, timings,
     for method in methods:
         start = time.perf_counter()
         if method == "oracle":
-            predictions["oracle"] = _oracle(item, scene, reference, once, timings)
+            predictions["oracle"] = _oracle(item, scene, reference, once, timings, semantics)
             continue
         predictions.update(_infer(item, reasoner, method, once, budget, failures))
         timings[f"inference_{method}_s"] += time.perf_counter() - start
     return QuestionRecord(item, reference.answer_type, predictions, ratio, size)
 
 
-def _oracle(item: QuestionItem, scene, reference, once, timings) -> Prediction:
+def _oracle(item: QuestionItem, scene, reference, once, timings, semantics: str = "intended") -> Prediction:
     """The reference executor on the ground-truth scene (with ``--parse``: on the parser's best program)."""
     from po3d_ppl.questions.executor import execute
 
@@ -239,7 +246,7 @@ def _oracle(item: QuestionItem, scene, reference, once, timings) -> Prediction:
         start = time.perf_counter()
         best = once.parse(item.question).best.program
         timings["parse_s"] += time.perf_counter() - start
-        reference = execute(scene, best)
+        reference = execute(scene, best, semantics=semantics)
     if not reference.valid:
         return Prediction((), 1.0)
     return Prediction(((reference.answer, 1.0),), 0.0)
