@@ -54,8 +54,8 @@ def main() -> None:
              if qp.trained.targets.op_id(op.name) is not None}
 
     def unconstrained(question: str) -> list[str] | None:
-        words = torch.tensor(qp.trained.words.encode(question)[0])
-        ids = greedy(qp.model, words, None, arity, qp.trained.max_len, qp.step_weights)
+        _, words, ngrams, _, _ = qp.encode(question)
+        ids = greedy(qp.model, words, None, arity, qp.trained.max_len, qp.step_weights, ngrams=ngrams)
         try:
             program = qp.trained.targets.decode(ids, qp.registry)
             check_program(program, qp.registry)
@@ -64,8 +64,8 @@ def main() -> None:
         return program_to_tokens(program)
 
     def constrained_greedy(question: str) -> list[str]:
-        words = torch.tensor(qp.trained.words.encode(question)[0])
-        ids = greedy(qp.model, words, qp.automaton, weights=qp.step_weights)
+        _, words, ngrams, _, _ = qp.encode(question)
+        ids = greedy(qp.model, words, qp.automaton, weights=qp.step_weights, ngrams=ngrams)
         return program_to_tokens(qp.trained.targets.decode(ids, qp.registry))
 
     decoders = {

@@ -155,3 +155,39 @@ def test_a_target_token_outside_the_vocabulary_is_a_typed_error():
     example = Example("What color is the back left wheel of the bus?", program, "parts", "parts:0")
     with pytest.raises(InputError, match="wheel_back_left.*target vocabulary"):
         train_parser([example], TrainConfig(max_steps=1), default_registry())
+
+
+def test_unknown_word_mechanism_and_its_ablation(trained):
+    """Typos within one edit are rewritten and reported; with the mechanism off they stay unknown."""
+    on = QuestionParser(trained)
+    off = QuestionParser(trained, unknown_words=False)
+    clean = on.parse("What is the color of the wheel of the red car?")
+    typo = on.parse("What is the colr of the wheel of the red car?")
+    assert ("colr", "color") in typo.corrections and typo.unknown_words == ()
+    assert typo.best.tokens == clean.best.tokens
+    ablated = off.parse("What is the colr of the wheel of the red car?")
+    assert ablated.corrections == () and ablated.unknown_words == ("colr",)
+
+
+def test_low_confidence_is_a_warning(trained):
+    from po3d_ppl.language.seq2seq.model_io import Calibration
+
+    sure = QuestionParser(trained, calibration=Calibration())
+    assert sure.parse("How many red things are there?").warning is None
+    doubtful = QuestionParser(trained, calibration=Calibration(unknown=-20.0))
+    result = doubtful.parse("How many zorblax things are there?")
+    assert result.confidence < 0.5 and "zorblax" in result.warning
+
+
+def test_subword_input_reads_unknown_words_by_their_letters():
+    examples = pair_examples()[:6]
+    config = TrainConfig(seed=1, epochs=1, batch_size=4, embed=16, hidden=16, ngram_buckets=257)
+    small = train_parser(examples, config, default_registry())
+    assert small.model.config.ngram_buckets == 257
+    parser = QuestionParser(small)
+    question = "What is the color of the zorblax wheel?"
+    _, words, ngrams, _, unknown = parser.encode(question)
+    assert unknown == ("zorblax",) and ngrams.shape[0] == words.shape[0] and int(ngrams[6].gt(0).sum()) > 3
+    _, _, bare, _, _ = QuestionParser(small, unknown_words=False).encode(question)
+    assert int(bare[6].gt(0).sum()) == 0  # the ablation: an unknown word is a bare <unk>
+    assert parser.parse(question).candidates

@@ -82,6 +82,7 @@ def train_parser_command(
 ) -> None:
     """Train the question parser on a dataset's train split (val split for model selection)."""
     import dataclasses
+    import sys
     import time
 
     import torch
@@ -131,6 +132,9 @@ def train_parser_command(
 
         def progress(step: int, total: int, info: dict) -> None:
             bar.update(task, completed=step, total=total, epoch=info["epoch"], loss=info["loss"])
+            if not console.is_terminal and step % 200 == 0:  # a log file: a plain line now and then
+                print(f"step {step}/{total} epoch {info['epoch']} loss {info['loss']:.4f} "
+                      f"{time.perf_counter() - start:.0f} s", file=sys.stderr, flush=True)
 
         trained = train_parser(train, config, registry, validation, device=device, progress=progress)
     seconds = time.perf_counter() - start

@@ -169,18 +169,11 @@ class QuestionParser:
         trained.calibration = Calibration(**meta.get("calibration", {}))
         return cls(trained, registry, device)
 
-    def parse(self, question: str, n: int = 1, beam: int = 5) -> QuestionParse:
-        """The ``n`` most probable programs for ``question`` (beam width ``max(beam, n)``).
-
-        A program that no scene can satisfy keeps its rank, flagged ``satisfiable=False``: it is what the
-        question says (e.g. "the front wheel of the car", a part cars do not have), and promoting a less probable
-        parse would answer another question. Part names come out in their canonical spelling (the target
-        vocabulary has no other), which selects every part that reads the same.
-        """
-        if not isinstance(question, str) or not tokenize(question):
-            raise InputError("question", f"{question!r} has no words to parse")
-        if n < 1:
-            raise InputError("n", f"must be at least 1, got {n}")
+    def encode(self, question: str) -> tuple[list[str], torch.Tensor, torch.Tensor | None,
+                                             tuple[tuple[str, str], ...], tuple[str, ...]]:
+        """What the network reads for ``question``: its words, their ids ``[T]`` and n-gram ids ``[T, K]`` (None
+        for a words-only model), after the normaliser's rewrites (which are returned, with the words that stayed
+        unknown). With the unknown-word mechanism off, unknown words are bare ``<unk>``."""
         tokens = tokenize(question)
         if self.unknown_words:
             normalised = self.normaliser(tokens)
@@ -195,6 +188,21 @@ class QuestionParser:
             shown = read if self.unknown_words else [w if i > 1 else "" for w, i in zip(read, ids)]
             rows = ngram_tensor_rows(shown, self.model.config.ngram_buckets)
             ngrams = torch.tensor(rows, dtype=torch.long, device=self.device)
+        return tokens, words, ngrams, tuple(corrections), tuple(unknown)
+
+    def parse(self, question: str, n: int = 1, beam: int = 5) -> QuestionParse:
+        """The ``n`` most probable programs for ``question`` (beam width ``max(beam, n)``).
+
+        A program that no scene can satisfy keeps its rank, flagged ``satisfiable=False``: it is what the
+        question says (e.g. "the front wheel of the car", a part cars do not have), and promoting a less probable
+        parse would answer another question. Part names come out in their canonical spelling (the target
+        vocabulary has no other), which selects every part that reads the same.
+        """
+        if not isinstance(question, str) or not tokenize(question):
+            raise InputError("question", f"{question!r} has no words to parse")
+        if n < 1:
+            raise InputError("n", f"must be at least 1, got {n}")
+        tokens, words, ngrams, corrections, unknown = self.encode(question)
         hypotheses = beam_search(self.model, self.automaton, words, n=n, beam=max(beam, n),
                                  weights=self.step_weights, ngrams=ngrams)
         candidates = []
