@@ -55,8 +55,9 @@ def test_record_has_the_contract_shapes(parsed):
     assert parsed.ownership.shape == (480, 640)
     for t in (parsed.existence_logodds, parsed.category_loglik, parsed.pose_loglik, parsed.positions):
         assert t.dtype == torch.float64 and torch.isfinite(t).all()
-    # Tables are log-sum-exps over the other parameters: a category's table is the log-sum-exp of its pose table.
-    assert torch.allclose(torch.logsumexp(parsed.pose_loglik, -1), parsed.category_loglik)
+    # Pose tables are conditional on the category: normalised over azimuths (the category table is the evidence).
+    assert torch.allclose(torch.logsumexp(parsed.pose_loglik, -1), torch.zeros(n, len(ontology.CATEGORIES),
+                                                                                dtype=torch.float64))
     # Each proposal's visible mask is exactly the pixels it owns.
     for i in range(n):
         assert torch.equal(parsed.masks[i], parsed.ownership == i)

@@ -74,3 +74,37 @@ class SimulatedBackend:
 
     def evidence(self, observation: Observation) -> SceneEvidence:
         return self._sensor(observation.index).evidence(observation.scene)
+
+
+@dataclass(frozen=True)
+class ImageBackend:
+    """The render-and-compare parser (:func:`po3d_ppl.perception.scene_parser.parse_scene`) on each image's
+    pixels; it never reads ``observation.scene``. Its identity holds the shipped models' sha256 and every
+    setting, so retraining or retuning never reads stale cached evidence. Visible masks are dropped from the
+    evidence it returns (reasoning never reads them, and they would dominate the cache: 0.3 MB per object)."""
+
+    name: str = "image"
+
+    def _settings(self) -> dict[str, Any]:
+        from dataclasses import asdict
+
+        from po3d_ppl.perception.object_parser import ParserConfig
+        from po3d_ppl.perception.scene_parser import SceneParserConfig
+
+        return {"object_parser": asdict(ParserConfig()), "scene_parser": asdict(SceneParserConfig())}
+
+    def identity(self) -> dict[str, Any]:
+        from po3d_ppl.model_store import read_manifest
+
+        manifest = read_manifest()
+        models = {name: {f: meta["sha256"] for f, meta in entry.get("files", {}).items()}
+                  for name, entry in manifest.items() if name in ("perception_features", "attributes")}
+        return {"name": self.name, "models": models, "settings": self._settings()}
+
+    def evidence(self, observation: Observation) -> SceneEvidence:
+        import dataclasses
+
+        from po3d_ppl.perception.scene_parser import parse_scene
+
+        evidence = parse_scene(observation.image_path).evidence
+        return dataclasses.replace(evidence, masks=None)

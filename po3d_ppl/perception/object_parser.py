@@ -80,6 +80,7 @@ import torch.nn.functional as F
 
 from po3d_ppl import ontology
 from po3d_ppl.errors import InputError
+from po3d_ppl.perception.calibration import TableCalibration, load_calibration
 from po3d_ppl.perception.features import STRIDE, extract_features
 from po3d_ppl.perception.image_input import CameraPrior, ImageInput, backproject_to_plane, load_image, project_points
 from po3d_ppl.perception.neural_mesh import FeatureModel, NeuralMeshes, load_feature_model
@@ -158,7 +159,8 @@ class ObjectProposals:
     ``existence_logodds`` [N]: render-and-compare score of the cells it is in front on, minus the acceptance
     threshold (uncalibrated).
     ``category_loglik`` [N, 5] (``ontology.CATEGORIES`` order); ``pose_loglik`` [N, 5, K] over ``pose_support``
-    [N, K] (degrees, ``pose_degree`` frame: clockwise from the viewing ray, 0 = back visible), per category;
+    [N, K] (degrees, ``pose_degree`` frame: clockwise from the viewing ray, 0 = back visible), per category and
+    normalised over azimuths (log P(azimuth | category); the category evidence is ``category_loglik`` alone);
     ``size_loglik`` [N, 2] (large, small). ``positions`` [N, 3] world (z = 0), ``depths`` [N] view depth of the
     base centre; ``rotations`` [N] world yaw of the best hypothesis (degrees). ``boxes`` [N, 4] (x, y, w, h pixels);
     ``masks`` [N, H, W] bool visible masks; ``ownership`` [H, W] int64 (proposal index, -1 background).
@@ -757,12 +759,14 @@ def _boxes(masks: torch.Tensor) -> torch.Tensor:
     return out
 
 
-def parse_objects(image, model: FeatureModel | None = None, config: ParserConfig | None = None
-                  ) -> ObjectProposals:
+def parse_objects(image, model: FeatureModel | None = None, config: ParserConfig | None = None,
+                  calibration: TableCalibration | None = None) -> ObjectProposals:
     """Detect, classify and pose every object of ``image`` (anything :func:`load_image` reads) by coarse
-    render-and-compare search and depth-ordered 3D-NMS. Reads pixels only (the camera is the prior's base)."""
+    render-and-compare search and depth-ordered 3D-NMS. Reads pixels only (the camera is the prior's base).
+    ``calibration`` rescales the tables (default: the shipped fit; ``TableCalibration()`` gives raw scores)."""
     config = config or ParserConfig()
     model = model or _default_model()
+    calibration = calibration if calibration is not None else _default_calibration()
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     img = load_image(image)
@@ -796,17 +800,25 @@ def parse_objects(image, model: FeatureModel | None = None, config: ParserConfig
     timings["refine"] = t5 - t4
     t4 = t5
     record = _record(located, new_scores, tables, camera, config, img,
-                     cell_scores(located, features, clutter, meshes, camera, config)[0] if located else None)
+                     cell_scores(located, features, clutter, meshes, camera, config)[0] if located else None,
+                     calibration)
     timings["record"] = time.perf_counter() - t4
     record.timings = timings
     return record
 
 
 def _record(accepted: list[Hypothesis], new_scores: list[float], tables: list, camera: Camera,
-            config: ParserConfig, img: ImageInput, fg: torch.Tensor | None = None) -> ObjectProposals:
+            config: ParserConfig, img: ImageInput, fg: torch.Tensor | None, calibration: TableCalibration
+            ) -> ObjectProposals:
     n, k = len(accepted), config.azimuth_bins
     cat = torch.stack([t[0] for t in tables]) if n else torch.zeros(0, len(CATEGORIES), dtype=torch.float64)
     pose = torch.stack([t[1] for t in tables]) if n else torch.zeros(0, len(CATEGORIES), k, dtype=torch.float64)
+    # the pose table is conditional on the category (normalised over azimuths): the category evidence is the
+    # category table alone, so a consumer that multiplies both (the scene model) does not count it twice
+    pose = torch.log_softmax(pose / calibration.pose_temperature, -1)
+    cat = cat / calibration.category_temperature
+    existence = calibration.existence_scale * (torch.tensor(new_scores, dtype=torch.float64)
+                                               - config.existence_threshold) + calibration.existence_bias
     size = torch.stack([t[2] for t in tables]) if n else torch.zeros(0, 2, dtype=torch.float64)
     ownership = _ownership(accepted, camera, config, img.size)
     if fg is not None and config.mask_by_evidence:
@@ -814,7 +826,7 @@ def _record(accepted: list[Hypothesis], new_scores: list[float], tables: list, c
     masks = torch.stack([ownership == i for i in range(n)]) if n else torch.zeros(0, *ownership.shape, dtype=bool)
     support = torch.tensor(config.azimuths, dtype=torch.float64).expand(n, k).clone()
     return ObjectProposals(
-        existence_logodds=torch.tensor(new_scores, dtype=torch.float64) - config.existence_threshold,
+        existence_logodds=existence.reshape(n),
         category_loglik=cat, pose_support=support, pose_loglik=pose, size_loglik=size,
         positions=torch.tensor([[h.x, h.y, 0.0] for h in accepted], dtype=torch.float64).reshape(n, 3),
         depths=torch.tensor([h.depth for h in accepted], dtype=torch.float64),
@@ -825,3 +837,8 @@ def _record(accepted: list[Hypothesis], new_scores: list[float], tables: list, c
 @lru_cache(maxsize=1)
 def _default_model() -> FeatureModel:
     return load_feature_model()
+
+
+@lru_cache(maxsize=1)
+def _default_calibration() -> TableCalibration:
+    return load_calibration()

@@ -1,0 +1,314 @@
+"""The object parser against ground truth (issue "Perception I", Done means): detection, category, azimuth,
+position, depth order and category calibration, overall and for occluded objects.
+
+Ground truth is read here only, for scoring; the parser sees the pixels.
+
+- **Matching**: greedy by 2D IoU (proposal box vs the object's visible-mask bbox) >= ``min_iou``, one to one.
+  Recall counts objects with >= ``min_pixels`` visible pixels; precision counts every proposal, except one matched
+  to a smaller object (it found a real object, just a tiny one).
+- **Azimuth** error is in the ``pose_degree`` frame (clockwise from the viewing ray), read from the pose table of
+  the true category (the argmax of what the parser reports, not a separate guess).
+- **Position** error is on the ground plane in the *camera's ground frame*: the position minus the camera's
+  ground point (x, y of its location). The world jitters the camera by a translation only, on a uniform ground, so
+  a camera moved in x-y gives exactly the image of every object moved the other way: absolute x-y is not
+  identifiable from pixels by any method, while positions relative to the camera (hence CLEVR's six directions and
+  depths) are. The parser reports positions for its estimated camera; the truth uses the image's true camera.
+- **Depth order**: over pairs of matched objects in one image whose true view depths differ by >= 0.05, whether
+  the proposals' depths order them the same way.
+- **Calibration**: ECE (15 bins, :func:`~po3d_ppl.evaluation.calibration.binned_calibration_error`) of the top
+  category's softmax probability on matched objects, before and after the fitted temperature.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import statistics
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from po3d_ppl import ontology
+from po3d_ppl.errors import InputError
+from po3d_ppl.evaluation.calibration import binned_calibration_error
+
+CATEGORIES = tuple(ontology.CATEGORIES)
+
+
+def box_iou(a: Sequence[float], b: Sequence[float]) -> float:
+    """IoU of two (x, y, w, h) boxes."""
+    ax0, ay0, aw, ah = a
+    bx0, by0, bw, bh = b
+    ix = max(0.0, min(ax0 + aw, bx0 + bw) - max(ax0, bx0))
+    iy = max(0.0, min(ay0 + ah, by0 + bh) - max(ay0, by0))
+    inter = ix * iy
+    union = aw * ah + bw * bh - inter
+    return inter / union if union > 0 else 0.0
+
+
+def match_boxes(pred: np.ndarray, truth: np.ndarray, min_iou: float = 0.5) -> list[tuple[int, int]]:
+    """Greedy one-to-one (prediction, truth) pairs by IoU, best first, above ``min_iou``."""
+    pairs = sorted(((box_iou(p, g), i, j) for i, p in enumerate(pred) for j, g in enumerate(truth)), reverse=True)
+    used_p, used_g, out = set(), set(), []
+    for value, i, j in pairs:
+        if value < min_iou:
+            break
+        if i in used_p or j in used_g:
+            continue
+        used_p.add(i)
+        used_g.add(j)
+        out.append((i, j))
+    return out
+
+
+@dataclass
+class ObjectOutcome:
+    """One ground-truth object and what the parser made of it (``proposal`` -1: missed)."""
+
+    image: str
+    index: int
+    category: str
+    visible_pixels: int
+    occlusion_ratio: float
+    true_depth: float
+    proposal: int = -1
+    category_loglik: list[float] = field(default_factory=list)
+    azimuth_error: float | None = None
+    position_error: float | None = None
+    depth: float | None = None
+    #: The pose table of the true category and the index of its bin nearest the true azimuth (for calibration).
+    pose_loglik: list[float] = field(default_factory=list)
+    true_bin: int | None = None
+
+
+@dataclass
+class ImageOutcome:
+    image: str
+    objects: list[ObjectOutcome]
+    proposals: int
+    #: Proposals matched to an object below the pixel floor (not false positives).
+    matched_small: int
+    existence_logodds: list[float]
+    #: Per proposal: whether it matched any object.
+    proposal_matched: list[bool]
+    seconds: float
+    timings: dict[str, float]
+
+
+def score_image(proposals, scene, image_name: str, seconds: float, min_pixels: int = 200, min_iou: float = 0.5
+                ) -> ImageOutcome:
+    """Match one image's :class:`~po3d_ppl.perception.object_parser.ObjectProposals` to its scene's objects."""
+    from po3d_ppl.perception.image_input import project_points
+
+    objs = scene.objects
+    truth_boxes = np.array([o.annotation.bbox for o in objs], dtype=np.float64).reshape(-1, 4)
+    pairs = {j: i for i, j in match_boxes(proposals.boxes.numpy(), truth_boxes, min_iou)}
+    true_ground = scene.camera.location[:2]
+    est_ground = proposals.camera.location[:2]
+    outcomes = []
+    for j, o in enumerate(objs):
+        depth = float(project_points(scene.camera, np.asarray(o.position, dtype=np.float64))[2])
+        out = ObjectOutcome(image_name, j, o.category, int(o.annotation.visible_pixels),
+                            float(o.annotation.occlusion_ratio), depth)
+        p = pairs.get(j)
+        if p is not None:
+            out.proposal = p
+            out.category_loglik = [float(v) for v in proposals.category_loglik[p]]
+            table = proposals.pose_loglik[p, CATEGORIES.index(o.category)]
+            guess = float(proposals.pose_support[p, int(table.argmax())])
+            out.pose_loglik = [float(v) for v in table]
+            gaps = (proposals.pose_support[p] - o.pose_degree + 180.0) % 360.0 - 180.0
+            out.true_bin = int(gaps.abs().argmin())
+            out.azimuth_error = abs((guess - o.pose_degree + 180.0) % 360.0 - 180.0)
+            rel_est = proposals.positions[p, :2].numpy() - est_ground
+            rel_true = np.asarray(o.position[:2]) - true_ground
+            out.position_error = float(np.linalg.norm(rel_est - rel_true))
+            out.depth = float(proposals.depths[p])
+        outcomes.append(out)
+    matched_to = {p: j for j, p in pairs.items()}
+    small = sum(1 for j in pairs if objs[j].annotation.visible_pixels < min_pixels)
+    return ImageOutcome(image_name, outcomes, len(proposals), small,
+                        [float(v) for v in proposals.existence_logodds],
+                        [i in matched_to for i in range(len(proposals))], seconds, dict(proposals.timings))
+
+
+def parse_dataset(data: Path, split: str | None, limit: int | None, parse: Callable, min_pixels: int = 200,
+                  progress: Callable[[int, int], None] | None = None) -> list[ImageOutcome]:
+    """Parse every image of ``split`` (``None``: all images) of a dataset directory and score it."""
+    import time
+
+    from po3d_ppl.perception.image_input import load_image
+    from po3d_ppl.world.scene_io import load_scenes
+
+    root = Path(data)
+    if not (root / "scenes.json").exists():
+        raise InputError("--data", f"{root} has no scenes.json; build one with `po3d dataset build --out {root}`")
+    scenes = load_scenes(root / "scenes.json")
+    indices = list(range(len(scenes)))
+    if split is not None:
+        split_map = json.loads((root / "splits.json").read_text())
+        if split not in split_map:
+            raise InputError("--split", f"{split!r} not in {root / 'splits.json'} (it has {sorted(split_map)})")
+        indices = sorted(split_map[split])
+    indices = indices[:limit] if limit is not None else indices
+    out = []
+    for n, i in enumerate(indices):
+        scene = scenes[i]
+        image = load_image(root / "images" / scene.image_filename)
+        start = time.perf_counter()
+        proposals = parse(image)
+        out.append(score_image(proposals, scene, scene.image_filename, time.perf_counter() - start, min_pixels))
+        if progress is not None:
+            progress(n + 1, len(indices))
+    return out
+
+
+def save_outcomes(outcomes: Iterable[ImageOutcome], path: Path) -> None:
+    Path(path).write_text("\n".join(json.dumps(asdict(o)) for o in outcomes) + "\n")
+
+
+def load_outcomes(path: Path) -> list[ImageOutcome]:
+    out = []
+    for line in Path(path).read_text().splitlines():
+        if line.strip():
+            raw = json.loads(line)
+            raw["objects"] = [ObjectOutcome(**o) for o in raw["objects"]]
+            out.append(ImageOutcome(**raw))
+    return out
+
+
+def fit_temperature(logits: torch.Tensor, target: torch.Tensor) -> float:
+    """The temperature T minimising the NLL of ``softmax(logits / T)`` (golden-section search on log T in
+    [1e-2, 1e3]; the NLL is unimodal in T for a fixed set of logits)."""
+    if logits.shape[0] == 0:
+        raise InputError("temperature", "no matched objects to fit a temperature on")
+    logits = logits.double()
+
+    def nll(log_t: float) -> float:
+        return float(torch.nn.functional.cross_entropy(logits / math.exp(log_t), target))
+
+    lo, hi = math.log(1e-2), math.log(1e3)
+    ratio = (math.sqrt(5) - 1) / 2
+    a, b = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
+    for _ in range(80):
+        if nll(a) < nll(b):
+            hi, b = b, a
+            a = hi - ratio * (hi - lo)
+        else:
+            lo, a = a, b
+            b = lo + ratio * (hi - lo)
+    return math.exp(0.5 * (lo + hi))
+
+
+def category_logits(outcomes: Sequence[ImageOutcome], min_pixels: int = 200) -> tuple[torch.Tensor, torch.Tensor]:
+    """[M, 5] category log-likelihoods of matched objects (>= ``min_pixels``) and their true category index."""
+    rows = [(o.category_loglik, CATEGORIES.index(o.category)) for img in outcomes for o in img.objects
+            if o.proposal >= 0 and o.visible_pixels >= min_pixels]
+    if not rows:
+        return torch.zeros(0, len(CATEGORIES), dtype=torch.float64), torch.zeros(0, dtype=torch.long)
+    return torch.tensor([r[0] for r in rows], dtype=torch.float64), torch.tensor([r[1] for r in rows])
+
+
+def _subset_figures(objs: list[ObjectOutcome]) -> dict[str, float | int | None]:
+    matched = [o for o in objs if o.proposal >= 0]
+    cats = [CATEGORIES[int(np.argmax(o.category_loglik))] == o.category for o in matched]
+    az = [o.azimuth_error <= 30.0 for o in matched]
+    pos = [o.position_error for o in matched]
+    return {"objects": len(objs), "recall": len(matched) / len(objs) if objs else None,
+            "category_accuracy": float(np.mean(cats)) if cats else None,
+            "azimuth_within_30": float(np.mean(az)) if az else None,
+            "median_position_error": statistics.median(pos) if pos else None}
+
+
+def summarise(outcomes: Sequence[ImageOutcome], temperature: float = 1.0, min_pixels: int = 200,
+              occluded_ratio: float = 0.2) -> dict:
+    """Every Done-means figure of the object parser over ``outcomes``."""
+    objs = [o for img in outcomes for o in img.objects if o.visible_pixels >= min_pixels]
+    predictions = sum(img.proposals - img.matched_small for img in outcomes)
+    true_positives = sum(1 for o in objs if o.proposal >= 0)
+    pairs = correct = 0
+    for img in outcomes:
+        m = [o for o in img.objects if o.proposal >= 0]
+        for a in range(len(m)):
+            for b in range(a + 1, len(m)):
+                if abs(m[a].true_depth - m[b].true_depth) < 0.05:
+                    continue
+                pairs += 1
+                correct += (m[a].true_depth < m[b].true_depth) == (m[a].depth < m[b].depth)
+    logits, target = category_logits(outcomes, min_pixels)
+    probs = torch.softmax(logits / temperature, -1)
+    conf, guess = probs.max(-1) if len(target) else (torch.zeros(0), torch.zeros(0))
+    occluded = [o for o in objs if o.occlusion_ratio >= occluded_ratio]
+    figures = {
+        "images": len(outcomes), "objects": len(objs), "proposals": predictions,
+        "precision": true_positives / predictions if predictions else None,
+        **_subset_figures(objs),
+        "depth_order_pairs": pairs, "depth_order_correct": correct / pairs if pairs else None,
+        "category_temperature": temperature,
+        "category_ece": binned_calibration_error(conf.tolist(), (guess == target).tolist()) if len(target) else None,
+        "seconds_per_image_median": statistics.median(img.seconds for img in outcomes) if outcomes else None,
+        f"occluded_{int(occluded_ratio * 100)}pct": _subset_figures(occluded),
+        "per_category": {c: _subset_figures([o for o in objs if o.category == c]) for c in CATEGORIES},
+        "stage_seconds_median": {k: statistics.median(img.timings[k] for img in outcomes)
+                                 for k in (outcomes[0].timings if outcomes else {})},
+    }
+    return figures
+
+
+def fit_platt(scores: torch.Tensor, labels: torch.Tensor) -> tuple[float, float]:
+    """(a, b) of ``sigmoid(a * score + b)`` minimising the NLL of ``labels`` (LBFGS; a kept > 0)."""
+    if scores.numel() == 0 or labels.all() or not labels.any():
+        raise InputError("existence", "Platt scaling needs both real and spurious proposals in the validation set")
+    x, y = scores.double(), labels.double()
+    log_a = torch.zeros((), dtype=torch.float64, requires_grad=True)
+    b = torch.zeros((), dtype=torch.float64, requires_grad=True)
+    opt = torch.optim.LBFGS([log_a, b], lr=0.5, max_iter=200, line_search_fn="strong_wolfe")
+
+    def closure():
+        opt.zero_grad()
+        loss = torch.nn.functional.binary_cross_entropy_with_logits(torch.exp(log_a) * x / 100.0 + b, y)
+        loss.backward()
+        return loss
+
+    opt.step(closure)
+    return float(torch.exp(log_a.detach())) / 100.0, float(b.detach())
+
+
+def fit_calibration(outcomes: Sequence[ImageOutcome], min_pixels: int = 200):
+    """The :class:`~po3d_ppl.perception.calibration.TableCalibration` of outcomes parsed with raw scores, and the
+    validation figures before and after it."""
+    from po3d_ppl.perception.calibration import TableCalibration
+
+    logits, target = category_logits(outcomes, min_pixels)
+    t_category = fit_temperature(logits, target)
+    rows = [(o.pose_loglik, o.true_bin) for img in outcomes for o in img.objects
+            if o.proposal >= 0 and o.visible_pixels >= min_pixels and o.pose_loglik]
+    pose_logits = torch.tensor([r[0] for r in rows], dtype=torch.float64)
+    t_pose = fit_temperature(pose_logits, torch.tensor([r[1] for r in rows]))
+    scores = torch.tensor([s for img in outcomes for s in img.existence_logodds], dtype=torch.float64)
+    labels = torch.tensor([m for img in outcomes for m in img.proposal_matched])
+    a, b = fit_platt(scores, labels)
+    calibration = TableCalibration(t_category, t_pose, a, b)
+
+    def figures(tc: float, tp: float, ea: float, eb: float) -> dict[str, float]:
+        cat = torch.softmax(logits / tc, -1)
+        pose = torch.softmax(pose_logits / tp, -1)
+        exist = torch.sigmoid(ea * scores + eb)
+        pose_conf, pose_guess = pose.max(-1)
+        cat_conf, cat_guess = cat.max(-1)
+        return {
+            "category_nll": float(torch.nn.functional.nll_loss(torch.log(cat), target)),
+            "category_ece": binned_calibration_error(cat_conf.tolist(), (cat_guess == target).tolist()),
+            "pose_nll": float(torch.nn.functional.nll_loss(torch.log(pose.clamp_min(1e-300)),
+                                                           torch.tensor([r[1] for r in rows]))),
+            "pose_ece": binned_calibration_error(pose_conf.tolist(),
+                                                 (pose_guess == torch.tensor([r[1] for r in rows])).tolist()),
+            "existence_ece": binned_calibration_error(exist.tolist(), labels.tolist()),
+        }
+
+    report = {"objects": len(target), "proposals": len(labels),
+              "raw": figures(1.0, 1.0, 1.0, 0.0), "fitted": figures(t_category, t_pose, a, b)}
+    return calibration, report

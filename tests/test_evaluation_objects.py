@@ -1,0 +1,59 @@
+"""Scoring the object parser: matching, temperature and Platt fits recover known values, summary figures."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+import torch
+
+from po3d_ppl.evaluation.objects import (
+    ImageOutcome,
+    ObjectOutcome,
+    fit_platt,
+    fit_temperature,
+    match_boxes,
+    summarise,
+)
+
+
+def test_matching_is_greedy_one_to_one_above_the_iou_floor():
+    import numpy as np
+
+    pred = np.array([[0, 0, 10, 10], [1, 1, 10, 10], [50, 50, 5, 5]], dtype=float)
+    truth = np.array([[0, 0, 10, 10], [100, 100, 4, 4]], dtype=float)
+    assert match_boxes(pred, truth) == [(0, 0)]
+
+
+def test_temperature_fit_recovers_the_generating_temperature():
+    gen = torch.Generator().manual_seed(0)
+    logits = 4.0 * torch.randn(6000, 5, generator=gen, dtype=torch.float64)
+    target = torch.multinomial(torch.softmax(logits / 3.0, -1), 1, generator=gen)[:, 0]
+    assert fit_temperature(logits, target) == pytest.approx(3.0, rel=0.08)
+
+
+def test_platt_fit_recovers_scale_and_bias():
+    gen = torch.Generator().manual_seed(1)
+    scores = 100.0 * torch.randn(8000, generator=gen, dtype=torch.float64)
+    labels = torch.rand(8000, generator=gen, dtype=torch.float64) < torch.sigmoid(0.05 * scores - 1.0)
+    a, b = fit_platt(scores, labels)
+    assert a == pytest.approx(0.05, rel=0.1) and b == pytest.approx(-1.0, abs=0.15)
+
+
+def test_summary_counts_detection_depth_order_and_occluded_subset():
+    def obj(i, depth, proposal, occ=0.0, az=10.0):
+        return ObjectOutcome("a.png", i, "car", 500, occ, depth, proposal, [0.0, -5, -5, -5, -5] if proposal >= 0
+                             else [], az if proposal >= 0 else None, 0.1 if proposal >= 0 else None,
+                             depth + 0.01 if proposal >= 0 else None)
+
+    image = ImageOutcome("a.png", [obj(0, 5.0, 0), obj(1, 9.0, 1, occ=0.5, az=170.0), obj(2, 7.0, -1)],
+                         proposals=3, matched_small=0, existence_logodds=[3.0, 2.0, -1.0],
+                         proposal_matched=[True, True, False], seconds=1.0, timings={"coarse": 0.5})
+    figures = summarise([image])
+    assert figures["precision"] == pytest.approx(2 / 3)
+    assert figures["recall"] == pytest.approx(2 / 3)
+    assert figures["azimuth_within_30"] == 0.5
+    assert figures["depth_order_correct"] == 1.0 and figures["depth_order_pairs"] == 1
+    assert figures["occluded_20pct"]["objects"] == 1 and figures["occluded_20pct"]["azimuth_within_30"] == 0.0
+    assert figures["category_accuracy"] == 1.0
+    assert not math.isnan(figures["category_ece"])
