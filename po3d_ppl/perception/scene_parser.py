@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
@@ -36,22 +36,13 @@ from po3d_ppl.evidence import DTYPE, NUM_STYLES, P, S, SceneEvidence
 from po3d_ppl.perception.image_input import ImageInput, load_image, project_points
 from po3d_ppl.world.scene import Camera
 
+if TYPE_CHECKING:
+    from po3d_ppl.perception.attributes import AttributeNet
+
 CATEGORIES = tuple(ontology.CATEGORIES)
 SUBTYPES = tuple(ontology.SUBTYPES)
 #: [21] category index of every subtype.
 SUBTYPE_CATEGORY = torch.tensor([CATEGORIES.index(ontology.CATEGORY_OF[s]) for s in SUBTYPES])
-
-
-class AttributeReader(Protocol):
-    """What the scene parser needs from an attribute network: log-probabilities from pixels and masks."""
-
-    def object_loglik(self, pixels: np.ndarray, masks: torch.Tensor) -> dict[str, torch.Tensor]:
-        """``subtype`` [N, 21], ``color`` [N, 8], ``material`` [N, 2], ``size`` [N, 2] for visible masks [N, H, W]."""
-        ...
-
-    def part_loglik(self, pixels: np.ndarray, masks: torch.Tensor) -> torch.Tensor:
-        """[M, 17] style log-probabilities (0 plain, then recoloured colour x material) of part masks [M, H, W]."""
-        ...
 
 
 @dataclass(frozen=True)
@@ -157,7 +148,7 @@ def _subtype_weights(subtype_loglik: torch.Tensor, config: SceneParserConfig) ->
     return out
 
 
-def parse_scene(image, *, object_model=None, attributes: AttributeReader | None = None,
+def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = None,
                 config: SceneParserConfig | None = None, parser_config=None) -> ParsedScene:
     """Read ``image`` (a path, HWC array or PIL image) into :class:`SceneEvidence` with every table filled from
     pixels. An image without vehicles gives empty evidence (N = 0), which reasoning answers (count 0, ...)."""
@@ -182,7 +173,7 @@ def parse_scene(image, *, object_model=None, attributes: AttributeReader | None 
     exist = proposals.existence_logodds.clone()
     t0 = time.perf_counter()
     if attributes is not None and n:
-        read = attributes.object_loglik(img.pixels, proposals.masks)
+        read = attributes.object_loglik(img, proposals.masks)
         subtype_ll = subtype_ll + read["subtype"].to(DTYPE)
         color_ll, material_ll = read["color"].to(DTYPE), read["material"].to(DTYPE)
         size_ll = size_ll + read["size"].to(DTYPE)
@@ -214,7 +205,7 @@ def parse_scene(image, *, object_model=None, attributes: AttributeReader | None 
 
 
 def _project(proposals, subtype_ll: torch.Tensor, size_ll: torch.Tensor, pose_ll: torch.Tensor, camera: Camera,
-             config: SceneParserConfig, attributes: AttributeReader | None, img: ImageInput):
+             config: SceneParserConfig, attributes: AttributeNet | None, img: ImageInput):
     """Occlusion and part tables by projection, and positions (box centres) and depths of the best hypotheses."""
     n = len(proposals)
     floor = config.projection_floor
@@ -254,7 +245,7 @@ def _project(proposals, subtype_ll: torch.Tensor, size_ll: torch.Tensor, pose_ll
         centre = mesh.box_centre
         positions[i] = torch.tensor(centre, dtype=DTYPE)
         depths[i] = float(project_points(camera, np.asarray(centre, dtype=np.float64))[2])
-    style_jobs: list[tuple[int, int, int, np.ndarray]] = []
+    part_maps: dict[tuple[int, int], torch.Tensor] = {}
     for i in range(n):
         for s, w_sub in weights[i]:
             parts = len(ontology.PARTS[SUBTYPES[s]])
@@ -271,15 +262,11 @@ def _project(proposals, subtype_ll: torch.Tensor, size_ll: torch.Tensor, pose_ll
                     part_occluded[i, s, p] += w_pose * bool(part_occluders[p])
                     for j in part_occluders[p]:
                         part_occludes[i, s, p, j] += w_pose
-                    if rank == 0 and attributes is not None and ann.visible_pixels >= 20:
-                        ids = gbuffer.geometry.reshape(gbuffer.height, gbuffer.width)
-                        mask = (ids == 0) & (gbuffer.part_ids == p)
-                        style_jobs.append((i, s, p, mask))
-    if attributes is not None and style_jobs:
-        masks = torch.from_numpy(np.stack([m for *_, m in style_jobs]))
-        read = attributes.part_loglik(img.pixels, masks).to(DTYPE)
-        for (i, s, p, _), row in zip(style_jobs, read):
-            part_style[i, s, p] = row
+                if rank == 0 and attributes is not None:  # the parts this hypothesis shows, for their looks
+                    own = gbuffer.geometry.reshape(gbuffer.height, gbuffer.width) == 0
+                    part_maps[(i, s)] = torch.from_numpy(np.where(own, gbuffer.part_ids, -1).astype(np.int64))
+    if attributes is not None and part_maps:
+        part_style = attributes.part_style_table(img, proposals.masks, part_maps, min_pixels=20).to(DTYPE).cpu()
     eye = np.eye(n, dtype=bool)
     tables = {
         "occluded_logodds": torch.tensor(_logodds(occluded, floor), dtype=DTYPE),
@@ -296,7 +283,7 @@ def _project(proposals, subtype_ll: torch.Tensor, size_ll: torch.Tensor, pose_ll
 class ImageParser:
     """The render-and-compare back-end: ``ImageParser().evidence(image) -> SceneEvidence``."""
 
-    attributes: AttributeReader | None = None
+    attributes: AttributeNet | None = None
     config: SceneParserConfig = field(default_factory=SceneParserConfig)
     name = "render-and-compare"
 
