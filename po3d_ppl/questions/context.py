@@ -39,6 +39,11 @@ class SceneContext:
         if semantics == PUBLIC:
             from po3d_ppl.questions.public import public_reading  # the public module builds on this one
 
+            for i, obj in enumerate(scene.objects):  # before the public reading, which needs known subtypes
+                if obj.subtype not in ontology.PARTS:
+                    raise SceneFormatError(f"objects[{i}].shape: unknown subtype {obj.subtype!r} (known: "
+                                           f"{', '.join(ontology.SUBTYPES)})")
+
             scene = public_reading(scene)
         self.scene = scene
         self.objects: tuple[SceneObject, ...] = scene.objects
