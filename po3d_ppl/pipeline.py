@@ -1,7 +1,14 @@
-"""The pipeline that joins the stages: a question is parsed (language) and its programs answered (reasoning).
+"""The pipeline that joins the stages: an image is parsed (perception), a question is parsed (language) and its
+programs answered (reasoning).
 
-The one place that imports both the parser and the reasoning engine, so neither stage imports the other for this.
-Answers are marginalised over the parser's n-best programs, weighted by their probabilities::
+The one place that imports perception, the parser and the reasoning engine together, so no stage imports another
+for this. ``answer(image, question)`` and ``load_pipeline()`` run everything on pixels with the shipped models::
+
+    import po3d_ppl
+    dist = po3d_ppl.answer("scene.png", "How many cars are occluded?")
+
+Answers are marginalised over the parser's n-best programs, weighted by their probabilities; on ground-truth
+evidence (the simulated sensor)::
 
     from po3d_ppl.perception import simulated_evidence
     from po3d_ppl.pipeline import answer_question
@@ -12,7 +19,18 @@ Answers are marginalised over the parser's n-best programs, weighted by their pr
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from po3d_ppl.errors import InputError
+from po3d_ppl.evidence import ScenePriors
 from po3d_ppl.reasoning import AnswerDistribution, Budget, SceneReasoner
+
+if TYPE_CHECKING:
+    from po3d_ppl.perception.scene_parser import ImageParser, ParsedScene
 
 
 def answer_question(reasoner: SceneReasoner, question: str, parser=None, *, n_best: int = 3, method: str = "auto",
@@ -34,3 +52,59 @@ def answer_question(reasoner: SceneReasoner, question: str, parser=None, *, n_be
                 for candidate in parse.candidates]
     joint = AnswerDistribution.mixture(weighted, method=method)
     return (joint.given_presuppositions() if presuppose else joint), parse
+
+
+@dataclass
+class Pipeline:
+    """The shipped models loaded once: perception (pixels -> ``SceneEvidence``), the question parser and the
+    reasoning engine. ``answer_many`` parses each image once for all its questions."""
+
+    perception: ImageParser
+    parser: object
+    priors: ScenePriors = field(default_factory=ScenePriors)
+
+    def scene(self, image) -> ParsedScene:
+        """Everything perception read from ``image`` (evidence, proposals, projections, timings)."""
+        return self.perception.parse(image)
+
+    def answer(self, image, question: str, *, method: str = "auto", n_best: int = 3, presuppose: bool = True,
+               budget: Budget | None = None, seed: int = 0) -> AnswerDistribution:
+        """P(answer | image, question), marginalised over the scene posterior and the n-best parses."""
+        return self.answer_many([image], [question], method=method, n_best=n_best, presuppose=presuppose,
+                                budget=budget, seed=seed)[0][0]
+
+    def answer_many(self, images: Sequence, questions: Sequence[str], *, method: str = "auto", n_best: int = 3,
+                    presuppose: bool = True, budget: Budget | None = None, seed: int = 0
+                    ) -> list[list[AnswerDistribution]]:
+        """Every question about every image: ``out[i][q]``. Each image is parsed once."""
+        if isinstance(questions, str):
+            raise InputError("questions", "expected a list of questions; for one question use answer()")
+        out = []
+        for image in images:
+            reasoner = SceneReasoner(self.perception.evidence(image), self.priors)
+            out.append([answer_question(reasoner, q, self.parser, n_best=n_best, method=method, seed=seed,
+                                        budget=budget, presuppose=presuppose)[0] for q in questions])
+        return out
+
+
+def load_pipeline(models_dir: str | Path | None = None, device: str | None = None) -> Pipeline:
+    """The shipped perception models and question parser (or those of ``models_dir``), checked against their
+    sha256; ``device`` (default CPU) for the networks."""
+    from po3d_ppl.language import QuestionParser
+    from po3d_ppl.perception.scene_parser import ImageParser
+
+    device = device or "cpu"
+    return Pipeline(ImageParser.load(models_dir, device), QuestionParser.load(models_dir, device=device))
+
+
+@lru_cache(maxsize=1)
+def _default_pipeline() -> Pipeline:
+    return load_pipeline()
+
+
+def answer(image, question: str, *, method: str = "auto", n_best: int = 3, presuppose: bool = True,
+           budget: Budget | None = None) -> AnswerDistribution:
+    """``answer(image, question)``: the answer distribution for one image (a path, HWC numpy array or PIL image)
+    with the shipped models, loaded once per process. For many questions use :func:`load_pipeline`."""
+    return _default_pipeline().answer(image, question, method=method, n_best=n_best, presuppose=presuppose,
+                                      budget=budget)

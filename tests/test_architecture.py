@@ -28,7 +28,7 @@ ALLOWED = {
     "evidence": BASE | {"world"},
     "perception": BASE | {"world", "evidence", "model_store"},
     "reasoning": BASE | {"catalogue", "world", "evidence", "language"},
-    "pipeline": BASE | {"language", "reasoning"},
+    "pipeline": BASE | {"language", "reasoning", "evidence", "perception"},
     "evaluation": None,  # benchmarks every stage against the others
     "cli": None,  # the command line may use every stage
     "__main__": None,

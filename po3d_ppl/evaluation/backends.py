@@ -98,13 +98,19 @@ class ImageBackend:
 
         manifest = read_manifest()
         models = {name: {f: meta["sha256"] for f, meta in entry.get("files", {}).items()}
-                  for name, entry in manifest.items() if name in ("perception_features", "attributes")}
+                  for name, entry in manifest.items()
+                  if name in ("perception_features", "object_calibration", "attributes")}
         return {"name": self.name, "models": models, "settings": self._settings()}
 
     def evidence(self, observation: Observation) -> SceneEvidence:
         import dataclasses
 
-        from po3d_ppl.perception.scene_parser import parse_scene
-
-        evidence = parse_scene(observation.image_path).evidence
+        evidence = self._parser().evidence(observation.image_path)
         return dataclasses.replace(evidence, masks=None)
+
+    def _parser(self):
+        from po3d_ppl.perception.scene_parser import ImageParser
+
+        if "parser" not in self.__dict__:  # loaded once per back-end (frozen dataclass: no attribute assignment)
+            object.__setattr__(self, "parser", ImageParser.load())
+        return self.__dict__["parser"]

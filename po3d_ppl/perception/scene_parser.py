@@ -281,11 +281,30 @@ def _project(proposals, subtype_ll: torch.Tensor, size_ll: torch.Tensor, pose_ll
 
 @dataclass(frozen=True)
 class ImageParser:
-    """The render-and-compare back-end: ``ImageParser().evidence(image) -> SceneEvidence``."""
+    """The render-and-compare back-end: ``ImageParser.load().evidence(image) -> SceneEvidence``."""
 
+    object_model: object = None
     attributes: AttributeNet | None = None
     config: SceneParserConfig = field(default_factory=SceneParserConfig)
     name = "render-and-compare"
 
+    @classmethod
+    def load(cls, models_dir=None, device=None, config: SceneParserConfig | None = None) -> ImageParser:
+        """The shipped models (or those of ``models_dir``), each checked against its sha256; the attribute
+        network only if one is listed in the manifest (otherwise its tables stay uninformative)."""
+        from po3d_ppl.model_store import read_manifest
+        from po3d_ppl.perception.neural_mesh import load_feature_model
+
+        device = device or "cpu"
+        attributes = None
+        if "attributes" in read_manifest(models_dir):
+            from po3d_ppl.perception.attributes import load_attribute_net
+
+            attributes = load_attribute_net(models_dir, device)
+        return cls(load_feature_model(models_dir, device), attributes, config or SceneParserConfig())
+
+    def parse(self, image) -> ParsedScene:
+        return parse_scene(image, object_model=self.object_model, attributes=self.attributes, config=self.config)
+
     def evidence(self, image) -> SceneEvidence:
-        return parse_scene(image, attributes=self.attributes, config=self.config).evidence
+        return self.parse(image).evidence
