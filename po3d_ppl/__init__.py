@@ -8,7 +8,7 @@ first use, so ``import po3d_ppl`` stays light.
 __version__ = "0.1.0"
 
 _LAZY = {"answer": "po3d_ppl.pipeline", "load_pipeline": "po3d_ppl.pipeline", "Pipeline": "po3d_ppl.pipeline"}
-__all__ = ["__version__", *_LAZY]
+__all__ = ["Pipeline", "__version__", "answer", "load_pipeline"]
 
 
 def __getattr__(name: str):
