@@ -33,7 +33,7 @@ def _with_occlusion(obj, occ: Occlusion):
 
 
 def _scenes():
-    red = dict(color="red")
+    red = {"color": "red"}
     return {
         # rows 1, 27: raw part names, substrings; a bus spells "wheel_back_left", a car "back_left_wheel"
         "parts": toy_scene([
