@@ -64,7 +64,8 @@ def test_bad_input_is_one_line_with_exit_code_2(scene_file, args, message):
 def test_demo_answers_rendered_questions_with_certain_evidence(tmp_path):
     """The README's main job, end to end (render, generate, parse, infer): with certain evidence every top answer
     is the question's ground truth, and invalid mass can only come from the parser's less likely programs."""
-    result = runner.invoke(app, ["demo", "--out", str(tmp_path), "--questions", "4", "--noise", "0"])
+    result = runner.invoke(app, ["demo", "--out", str(tmp_path), "--questions", "4", "--evidence", "simulated",
+                                 "--noise", "0"])
     assert result.exit_code == 0, result.output
     assert (tmp_path / "image.png").stat().st_size > 0 and (tmp_path / "scene.json").is_file()
     report = json.loads((tmp_path / "answers.json").read_text())
@@ -73,3 +74,12 @@ def test_demo_answers_rendered_questions_with_certain_evidence(tmp_path):
         answer = row["answer"]
         assert answer["invalid"] <= 1.0 - row["parses"][0]["probability"] + 1e-9
         assert str(answer["top"]).lower() == str(row["truth"]).lower(), row
+
+
+def test_demo_reads_the_image_by_default(tmp_path):
+    """The default demo parses the pixels (no ground truth) and writes the overlay of what perception read."""
+    result = runner.invoke(app, ["demo", "--out", str(tmp_path), "--questions", "2"])
+    assert result.exit_code == 0, result.output
+    assert "perception on the image" in result.output
+    assert (tmp_path / "overlay.png").stat().st_size > 0
+    assert len(json.loads((tmp_path / "answers.json").read_text())) == 2

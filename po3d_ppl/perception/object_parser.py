@@ -194,8 +194,8 @@ class ObjectProposals:
 
 
 NOTES = ("camera jitter not estimated (base camera: absolute positions carry its x-y offset)",
-         "objects assumed on the ground plane", "tables are uncalibrated scores (no temperature fitted)",
-         "tables from the local search, before the gradient refinement of the pose")
+         "objects assumed on the ground plane", "tables from the local search, before the gradient refinement of the pose")
+RAW_NOTE = "tables are raw render-and-compare scores (no calibration shipped: po3d train calibration)"
 
 
 # --- templates: vertex projections at reference depths ---------------------------------------------------------------
@@ -831,7 +831,8 @@ def _record(accepted: list[Hypothesis], new_scores: list[float], tables: list, c
         positions=torch.tensor([[h.x, h.y, 0.0] for h in accepted], dtype=torch.float64).reshape(n, 3),
         depths=torch.tensor([h.depth for h in accepted], dtype=torch.float64),
         rotations=torch.tensor([h.rotation for h in accepted], dtype=torch.float64),
-        boxes=_boxes(masks), masks=masks, ownership=ownership, camera=camera, poses=list(accepted), notes=NOTES)
+        boxes=_boxes(masks), masks=masks, ownership=ownership, camera=camera, poses=list(accepted),
+        notes=NOTES + ((RAW_NOTE,) if calibration == TableCalibration() else ()))
 
 
 @lru_cache(maxsize=1)
