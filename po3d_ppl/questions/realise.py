@@ -280,7 +280,7 @@ class Realiser:
             head = f"{noun} that {verb} {_and(adjectives)}"
         elif "material" in d.attrs and self.chance(0.1) and not posts:
             rest = [self._attr_words((k, d.attrs[k])) for k in ("size", "color") if k in d.attrs]
-            head = " ".join([*rest, noun, "made of", self.pick(lx.ATTRIBUTE_FORMS[d.attrs["material"]])])
+            head = " ".join([*rest, noun, "made of", d.attrs["material"]])  # "made of metal", not "of shiny"
         else:
             head = " ".join([*adjectives, noun])
         if d.other:
@@ -399,6 +399,18 @@ class Realiser:
         d = self.obj(target)
         if d.union is not None:
             a, b = d.union
+            if d.attrs or d.shape is not None or d.posts or d.occluded:  # filters on the union
+                if a.attrs or a.shape or b.attrs or b.shape or not a.posts or not b.posts:
+                    raise Unrealisable("filters over a union of filtered sets")
+                subject = self.np(_Obj(attrs=d.attrs, shape=d.shape), "plural")
+                ra, rb = " and ".join(p[1] for p in a.posts), " and ".join(p[1] for p in b.posts)
+                ra, rb = ra.removeprefix("that are "), rb.removeprefix("that are ")
+                if count:
+                    return self.pick((f"How many {subject} are either {ra} or {rb}?",
+                                      f"How many {subject} are {ra} or {rb}?",
+                                      f"What number of {subject} are either {ra} or {rb}?"))
+                return self.pick((f"Are there any {subject} that are either {ra} or {rb}?",
+                                  f"Are there any {subject} {ra} or {rb}?"))
             pa, pb = self.np(a, "plural"), self.np(b, "plural")
             if count:
                 return self.pick((f"How many things are either {pa} or {pb}?", f"How many {pa} or {pb} are there?",
