@@ -92,6 +92,58 @@ def eval_objects_command(
     console.print_json(json.dumps(figures))
 
 
+def train_background_command(
+    data: Path = _DATA, split: str = typer.Option("train", "--split", help="Split of --data to fit on."),
+    limit: int = typer.Option(80, "--limit", min=5, help="Images to fit on (the median needs few)."),
+    out: Path = typer.Option(None, "--out", help="Where to write the model (default: models/)."),
+) -> None:
+    """Fit the background model (the bare ground, lit and shadowed, per pixel) on a dataset's images; write
+    models/background.safetensors with its manifest entry."""
+    import cv2
+    import numpy as np
+    from rich.console import Console
+    from rich.progress import track
+
+    from po3d_ppl.errors import InputError
+    from po3d_ppl.model_store import models_dir, write_entry
+    from po3d_ppl.perception.background import MODEL_NAME, fit_background
+    from po3d_ppl.world import rle
+    from po3d_ppl.world.scene_io import load_scenes
+
+    console = Console()
+    root = Path(data)
+    if not (root / "scenes.json").exists():
+        raise InputError("--data", f"{root} has no scenes.json; build one with `po3d dataset build --out {root}`")
+    splits = json.loads((root / "splits.json").read_text())
+    if split not in splits:
+        raise InputError("--split", f"{split!r} not in {root / 'splits.json'} (it has {sorted(splits)})")
+    scenes = load_scenes(root / "scenes.json")
+    images, covered = [], []
+    for i in track(sorted(splits[split])[:limit], description="reading images", console=console):
+        scene = scenes[i]
+        image = cv2.imread(str(root / "images" / scene.image_filename))
+        if image is None:
+            raise InputError("--data", f"cannot read {root / 'images' / scene.image_filename}")
+        images.append(np.ascontiguousarray(image[..., ::-1]))
+        mask = np.zeros(image.shape[:2], dtype=bool)
+        for obj in scene.objects:
+            mask |= rle.decode(obj.annotation.visible_mask, image.shape[0], image.shape[1])
+        covered.append(mask)
+    model = fit_background(images, covered)
+    directory = Path(out) if out is not None else models_dir()
+    directory.mkdir(parents=True, exist_ok=True)
+    path = model.save(directory)
+    manifest = json.loads((root / "manifest.json").read_text()) if (root / "manifest.json").exists() else {}
+    words = ["po3d", "train", "background", "--data", str(data), "--split", split, "--limit", str(limit)]
+    words += ["--out", str(out)] if out is not None else []
+    write_entry(MODEL_NAME, [path], directory, command=shlex.join(words), data_seed=manifest.get("seed"),
+                data_config=manifest.get("config"),
+                metrics={"images": len(images), "shadow_ratio": model.shadow_ratio, "threshold": model.threshold})
+    console.print(f"background of {len(images)} images, shadow ratio {model.shadow_ratio:.3f} -> {path}",
+                  markup=False, highlight=False)
+
+
 def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:
     train_app.command("calibration")(train_calibration_command)
+    train_app.command("background")(train_background_command)
     eval_app.command("objects")(eval_objects_command)
