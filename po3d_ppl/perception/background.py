@@ -74,7 +74,7 @@ class BackgroundModel:
         lit = np.abs(image - self.ground).max(-1)
         dark = np.abs(image - self.shadow).max(-1)
         mask = ((lit > self.threshold) & (dark > self.threshold)).astype(np.uint8)
-        count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        _, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
         keep = stats[:, cv2.CC_STAT_AREA] >= self.min_blob
         keep[0] = False
         return keep[labels]
