@@ -45,3 +45,21 @@ def test_top_level_answer_takes_an_array_and_rejects_a_string_list(pipeline, two
     assert dist.top == 1
     with pytest.raises(InputError, match="list of questions"):
         pipeline.answer_many([two_vehicles], "How many buses are there?")
+
+
+def test_po3d_answer_reads_an_image(tmp_path, two_vehicles):
+    import json
+
+    import cv2
+    from typer.testing import CliRunner
+
+    from po3d_ppl.cli import app
+
+    path = tmp_path / "two.png"
+    cv2.imwrite(str(path), two_vehicles[..., ::-1])
+    runner = CliRunner()
+    result = runner.invoke(app, ["answer", "--image", str(path), "How many buses are there?", "--json"])
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.output[result.output.index("{"):])["top"] == 1
+    both = runner.invoke(app, ["answer", "--image", str(path), "--scene", str(path), "How many buses are there?"])
+    assert both.exit_code != 0 and "exactly one of a scene file or an image" in str(both.exception)

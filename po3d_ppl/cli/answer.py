@@ -9,7 +9,10 @@ import typer
 
 def answer(
     question: str = typer.Argument(None, help="A question in English (parsed by the shipped question parser)."),
-    scene: Path = typer.Option(..., "--scene", help="A scene file, or a scenes file ({info, scenes})."),
+    scene: Path = typer.Option(None, "--scene", help="A scene file, or a scenes file ({info, scenes}): evidence from "
+                                                     "its ground truth (--noise)."),
+    image: Path = typer.Option(None, "--image", help="An image instead of --scene: evidence from perception on its "
+                                                     "pixels (the shipped models)."),
     program: str = typer.Option(None, "--program", help="A program instead of a question: po3d text syntax, a JSON "
                                                         "node list, or a file holding either."),
     index: int = typer.Option(None, "--index", help="Which scene of a scenes file."),
@@ -27,10 +30,8 @@ def answer(
     semantics: str = typer.Option("intended", "--semantics", help="intended (default) or public: the public "
                                   "Super-CLEVR-3D code's answers; the evidence then reads the public annotation."),
 ) -> None:
-    """Print the answer distribution for QUESTION (or --program) about the scene.
-
-    Until perception lands, evidence comes from the scene's ground truth (``--noise`` makes it uncertain).
-    """
+    """Print the answer distribution for QUESTION (or --program) about an image (--image: perception on its
+    pixels) or a scene (--scene: its ground truth, ``--noise`` makes it uncertain)."""
     import json
 
     from rich.console import Console
@@ -55,9 +56,19 @@ def answer(
     from po3d_ppl.catalogue.semantics import PUBLIC, check_semantics
     from po3d_ppl.questions.public import public_reading
 
-    truth = load_scene_arg(scene, index)
-    truth = public_reading(truth) if check_semantics(semantics) == PUBLIC else truth
-    reasoner = SceneReasoner(simulated_evidence(truth, noise=noise, seed=seed), semantics=semantics)
+    if (scene is None) == (image is None):
+        raise InputError("--scene/--image", "give exactly one of a scene file or an image")
+    if image is not None:
+        if check_semantics(semantics) == PUBLIC:
+            raise InputError("--semantics", "public semantics reads the public annotation of a scene file; use "
+                                            "--scene with it")
+        from po3d_ppl.perception.scene_parser import ImageParser
+
+        reasoner = SceneReasoner(ImageParser.load().evidence(image), semantics=semantics)
+    else:
+        truth = load_scene_arg(scene, index)
+        truth = public_reading(truth) if check_semantics(semantics) == PUBLIC else truth
+        reasoner = SceneReasoner(simulated_evidence(truth, noise=noise, seed=seed), semantics=semantics)
     parse = None
     if program is not None:
         dist = reasoner.infer(read_program_arg(program, allow_text=True), method, num_samples=samples, seed=seed,
