@@ -12,7 +12,8 @@ from pathlib import Path
 import typer
 
 _DATA = typer.Option(..., "--data", help="Dataset directory from `po3d dataset build`.")
-_SPLIT = typer.Option("test", "--split", help="train, val or test.")
+_SPLIT = typer.Option("test", "--split", help="train, val, test, or all (every image: a dataset seed held out as a "
+                                               "whole).")
 _METHODS = typer.Option("ours,thresholded,soft,oracle", "--methods",
                         help="Comma-separated: ours (reported given presuppositions and joint), thresholded "
                              "(NS-VQA), soft (P-NSVQA), oracle (reference executor on the true scene).")
