@@ -70,9 +70,11 @@ def train_attributes_command(
     data: Annotated[Path, typer.Option("--data", help="Dataset directory from `po3d dataset build`.")],
     out: Annotated[Path | None, typer.Option("--out", help="Where to write the model (default: models/).")] = None,
     seed: Annotated[int, typer.Option("--seed", help="Seed of initialisation, data order and augmentation.")] = 0,
-    epochs: Annotated[int, typer.Option("--epochs", min=1, help="Passes over the training objects.")] = 24,
+    epochs: Annotated[int, typer.Option("--epochs", min=1, help="Passes over the training objects.")] = 28,
     batch_size: Annotated[int, typer.Option("--batch-size", min=1, help="Objects a step (parts: in step).")] = 32,
     lr: Annotated[float, typer.Option("--lr", help="Peak learning rate (one-cycle).")] = 3e-3,
+    part_fraction: Annotated[float, typer.Option(
+        "--part-fraction", help="Fraction of the training parts seen per epoch (a random subset).")] = 0.25,
     max_steps: Annotated[int | None, typer.Option("--max-steps", min=1, help="Stop after this many steps.")] = None,
     splits: Annotated[str, typer.Option("--splits", help="Comma-separated splits of --data to train on.")] = "train",
     val_split: Annotated[str, typer.Option("--val-split", help="Split of --data to fit temperatures on.")] = "val",
@@ -104,7 +106,8 @@ def train_attributes_command(
     check_seed(seed)
     torch.set_num_threads(threads)
     console = Console()
-    config = TrainConfig(seed=seed, epochs=epochs, batch_size=batch_size, lr=lr, max_steps=max_steps)
+    config = TrainConfig(seed=seed, epochs=epochs, batch_size=batch_size, lr=lr, part_fraction=part_fraction,
+                         max_steps=max_steps)
     split_list = [s.strip() for s in splits.split(",") if s.strip()]
     train = AttributeData.concat([_load(console, data, s, config.net, cache) for s in split_list])
     val = _load(console, data, val_split, config.net, cache)
@@ -136,8 +139,8 @@ def train_attributes_command(
         data_manifests.append(held)
     directory = Path(out) if out is not None else models_dir()
     words = ["po3d", "train", "attributes", "--data", str(data), "--seed", str(seed), "--epochs", str(epochs),
-             "--batch-size", str(batch_size), "--lr", str(lr), "--splits", ",".join(split_list), "--val-split",
-             val_split, "--threads", str(threads)]
+             "--batch-size", str(batch_size), "--lr", str(lr), "--part-fraction", str(part_fraction),
+             "--splits", ",".join(split_list), "--val-split", val_split, "--threads", str(threads)]
     if max_steps is not None:
         words += ["--max-steps", str(max_steps)]
     if eval_data is not None:

@@ -64,14 +64,33 @@ PART_LOOKS: tuple[str, ...] = ("plain", "recoloured")
 PART_HEADS: Mapping[str, tuple[str, ...]] = {
     "recoloured": PART_LOOKS, "color": ontology.COLORS, "material": ontology.MATERIALS,
 }
-#: Scalars per object crop: box centre (x / W, y / H), box width and height / H, sqrt(mask area) / H, box bottom / H.
-OBJECT_GEOMETRY = 6
+#: Scalars per object crop: box centre (x / W, y / H), box width and height / H, sqrt(mask area) / H, box bottom / H,
+#: and the log of the box width, height and sqrt(area) in metres at the depth of the box's bottom centre on the
+#: ground seen by the camera prior's base camera (size is a metric property; pixels alone confound it with depth).
+OBJECT_GEOMETRY = 9
 #: Scalars per part crop: side and area relative to the object's, log area, centre offset from the object's centre.
 PART_GEOMETRY = 5
 #: The object's look given to the part head: colour probabilities then material probabilities.
 REFERENCE = len(ontology.COLORS) + len(ontology.MATERIALS)
 #: Object channels: RGB, mask. Part channels: RGB, part mask, object mask.
 OBJECT_CHANNELS, PART_CHANNELS = 4, 5
+#: Classes of the object network's dense auxiliary head (training only): per feature cell, not this object (0), its
+#: unlabelled body (1), or raw part ``2 + RAW_PART_NAMES.index(name)``. Shape supervision for the subtype head.
+DENSE_CLASSES = 2 + len(ontology.RAW_PART_NAMES)
+
+
+def _mirror_parts() -> torch.Tensor:
+    """Dense class -> its mirror image's class (left and right parts swap when a crop is flipped)."""
+    swap = {"left": "right", "right": "left"}
+    out = list(range(DENSE_CLASSES))
+    for k, name in enumerate(ontology.RAW_PART_NAMES):
+        mirrored = "_".join(swap.get(t, t) for t in name.split("_"))
+        if mirrored in ontology.RAW_PART_NAMES:
+            out[2 + k] = 2 + ontology.RAW_PART_NAMES.index(mirrored)
+    return torch.tensor(out)
+
+
+DENSE_MIRROR = _mirror_parts()
 
 
 def _style_columns() -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
@@ -193,15 +212,22 @@ def crop_pixels(pixels: torch.Tensor, windows: torch.Tensor, size: int) -> torch
     return out[0].view(c, k, size, size).transpose(0, 1)
 
 
-def crop_labels(planes: torch.Tensor, plane_index: torch.Tensor, values: torch.Tensor, windows: torch.Tensor,
-                size: int) -> torch.Tensor:
-    """Nearest-pixel crops ``[K, size, size]`` (bool) of ``planes[plane_index[k]] == values[k]``: works for bool
-    masks (values True) and for integer label maps (values = label ids) without expanding them to masks."""
+def crop_values(planes: torch.Tensor, plane_index: torch.Tensor, windows: torch.Tensor, size: int
+                ) -> tuple[torch.Tensor, torch.Tensor]:
+    """Nearest-pixel crops ``[K, size, size]`` of ``planes[plane_index[k]]`` and where they fall inside the image."""
     _, h, w = planes.shape
     xs, ys = _window_coords(windows.float(), size)
     ix, iy = torch.floor(xs).long(), torch.floor(ys).long()
     inside = ((iy >= 0) & (iy < h))[:, :, None] & ((ix >= 0) & (ix < w))[:, None, :]
     picked = planes[plane_index[:, None, None], iy.clamp(0, h - 1)[:, :, None], ix.clamp(0, w - 1)[:, None, :]]
+    return picked, inside
+
+
+def crop_labels(planes: torch.Tensor, plane_index: torch.Tensor, values: torch.Tensor, windows: torch.Tensor,
+                size: int) -> torch.Tensor:
+    """Nearest-pixel crops ``[K, size, size]`` (bool) of ``planes[plane_index[k]] == values[k]``: works for bool
+    masks (values True) and for integer label maps (values = label ids) without expanding them to masks."""
+    picked, inside = crop_values(planes, plane_index, windows, size)
     return (picked == values.to(planes.dtype)[:, None, None]) & inside
 
 
@@ -209,8 +235,8 @@ def _as_pixels(image: Any, device: torch.device) -> torch.Tensor:
     """Float RGB ``[3, H, W]`` in [0, 1] from a tensor (float or uint8) or an ``ImageInput``."""
     pixels = getattr(image, "pixels", image)
     if not isinstance(pixels, torch.Tensor) or pixels.dim() != 3 or pixels.shape[0] != 3:
-        raise InputError("image", f"expected an RGB tensor [3, H, W] or an ImageInput, got "
-                                  f"{tuple(pixels.shape) if isinstance(pixels, torch.Tensor) else type(pixels).__name__}")
+        got = tuple(pixels.shape) if isinstance(pixels, torch.Tensor) else type(pixels).__name__
+        raise InputError("image", f"expected an RGB tensor [3, H, W] or an ImageInput, got {got}")
     if pixels.dtype == torch.uint8:
         return pixels.to(device=device, dtype=torch.float32) / 255.0
     return pixels.to(device=device, dtype=torch.float32)
@@ -232,6 +258,7 @@ class ObjectInputs:
     geometry: torch.Tensor
     boxes: torch.Tensor
     counts: torch.Tensor
+    windows: torch.Tensor
 
 
 def object_inputs(pixels: torch.Tensor, masks: torch.Tensor, config: AttributeConfig) -> ObjectInputs:
@@ -244,10 +271,30 @@ def object_inputs(pixels: torch.Tensor, masks: torch.Tensor, config: AttributeCo
     idx = torch.arange(n, device=masks.device)
     mask = crop_labels(masks, idx, torch.ones(n, dtype=torch.bool, device=masks.device), win, config.object_size)
     crops = torch.cat([rgb, mask[:, None].to(rgb.dtype)], 1)
-    geometry = torch.stack([(boxes[:, 0] + boxes[:, 2]) / (2 * w), (boxes[:, 1] + boxes[:, 3]) / (2 * h),
-                            (boxes[:, 2] - boxes[:, 0]) / h, (boxes[:, 3] - boxes[:, 1]) / h,
-                            counts.float().sqrt() / h, boxes[:, 3] / h], -1)
-    return ObjectInputs(crops, geometry.to(rgb.dtype), boxes, counts)
+    metres = _metres_per_pixel(boxes, h, w)
+    dims = torch.stack([boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1], counts.float().sqrt()], -1)
+    geometry = torch.cat([torch.stack([(boxes[:, 0] + boxes[:, 2]) / (2 * w), (boxes[:, 1] + boxes[:, 3]) / (2 * h),
+                                       (boxes[:, 2] - boxes[:, 0]) / h, (boxes[:, 3] - boxes[:, 1]) / h,
+                                       counts.float().sqrt() / h, boxes[:, 3] / h], -1),
+                          torch.log((dims * metres[:, None]).clamp(min=1e-3))], -1)
+    return ObjectInputs(crops, geometry.to(rgb.dtype), boxes, counts, win)
+
+
+#: Depth (m) assumed for a box whose bottom lies above the horizon of the base camera.
+_FAR = 40.0
+
+
+def _metres_per_pixel(boxes: torch.Tensor, height: int, width: int) -> torch.Tensor:
+    """Metres per pixel at the depth of each box's bottom centre, taken as a ground point seen by the camera
+    prior's base camera (the world's jitter of +-0.5 m moves this by a few percent; sizes differ by 2x)."""
+    from po3d_ppl.perception.image_input import CameraPrior, backproject_to_plane, project_points
+
+    camera = CameraPrior(width, height).base
+    bottom = torch.stack([(boxes[:, 0] + boxes[:, 2]) / 2, boxes[:, 3]], -1).double()
+    ground = backproject_to_plane(camera, bottom)
+    depth = project_points(camera, ground)[:, 2]
+    depth = torch.where(torch.isfinite(depth) & (depth > 0), depth, torch.full_like(depth, _FAR)).clamp(max=_FAR)
+    return (depth / float(camera.K[1, 1])).to(boxes.dtype)
 
 
 def part_inputs(pixels: torch.Tensor, planes: torch.Tensor, plane_index: torch.Tensor, values: torch.Tensor,
@@ -274,6 +321,20 @@ def part_inputs(pixels: torch.Tensor, planes: torch.Tensor, plane_index: torch.T
 # --- networks --------------------------------------------------------------------------------------------------------
 
 
+def mirror_object_geometry(geometry: torch.Tensor) -> torch.Tensor:
+    """Object scalars of the horizontally mirrored crop (the box centre's x moves to 1 - x)."""
+    out = geometry.clone()
+    out[:, 0] = 1 - out[:, 0]
+    return out
+
+
+def mirror_part_geometry(geometry: torch.Tensor) -> torch.Tensor:
+    """Part scalars of the mirrored crop (the offset from the object's centre changes sign in x)."""
+    out = geometry.clone()
+    out[:, 3] = -out[:, 3]
+    return out
+
+
 def _conv(cin: int, cout: int, stride: int = 1) -> nn.Sequential:
     return nn.Sequential(nn.Conv2d(cin, cout, 3, stride, 1, bias=False), nn.BatchNorm2d(cout), nn.ReLU(inplace=True))
 
@@ -286,22 +347,27 @@ class CropNet(nn.Module):
     """
 
     def __init__(self, channels: int, widths: tuple[int, int, int, int], scalars: int, hidden: int,
-                 heads: Mapping[str, int]):
+                 heads: Mapping[str, int], dense: int = 0):
         super().__init__()
         w0, w1, w2, w3 = widths
         self.trunk = nn.Sequential(_conv(channels, w0), _conv(w0, w1, 2), _conv(w1, w1), _conv(w1, w2, 2),
                                    _conv(w2, w2), _conv(w2, w3, 2), _conv(w3, w3))
         self.mlp = nn.Sequential(nn.Linear(2 * w3 + scalars, hidden), nn.ReLU(inplace=True))
         self.heads = nn.ModuleDict({name: nn.Linear(hidden, k) for name, k in heads.items()})
+        #: Optional per-cell classifier on the stride-8 map (an auxiliary training target; ``dense`` in the output).
+        self.dense = nn.Conv2d(w3, dense, 1) if dense else None
 
     def forward(self, crops: torch.Tensor, scalars: torch.Tensor) -> dict[str, torch.Tensor]:
         x = crops.clone()
         x[:, :3] = (x[:, :3] - 0.5) / 0.25
         x[:, 3:] = x[:, 3:] * 2 - 1
-        f = self.trunk(x.contiguous(memory_format=torch.channels_last))  # ~20% faster on CPU
-        f = torch.cat([f.mean((2, 3)), f.amax((2, 3)), scalars], 1)
+        fmap = self.trunk(x.contiguous(memory_format=torch.channels_last))  # ~20% faster on CPU
+        f = torch.cat([fmap.mean((2, 3)), fmap.amax((2, 3)), scalars], 1)
         h = self.mlp(f)
-        return {name: head(h) for name, head in self.heads.items()}
+        out = {name: head(h) for name, head in self.heads.items()}
+        if self.dense is not None and self.training:
+            out["dense"] = self.dense(fmap)
+        return out
 
 
 def _head_sizes(heads: Mapping[str, tuple[str, ...]]) -> dict[str, int]:
@@ -320,7 +386,7 @@ class AttributeNet(nn.Module):
         super().__init__()
         self.config = config
         self.objects = CropNet(OBJECT_CHANNELS, config.object_widths, OBJECT_GEOMETRY, config.hidden,
-                               _head_sizes(OBJECT_HEADS))
+                               _head_sizes(OBJECT_HEADS), dense=DENSE_CLASSES)
         self.parts = CropNet(PART_CHANNELS, config.part_widths, PART_GEOMETRY + REFERENCE, config.hidden,
                              _head_sizes(PART_HEADS))
         self.register_buffer("object_temperature", torch.ones(len(OBJECT_HEADS)))
@@ -341,11 +407,22 @@ class AttributeNet(nn.Module):
     # -- raw logits (training, calibration) -------------------------------------------------------------------------
 
     def object_logits(self, crops: torch.Tensor, geometry: torch.Tensor) -> dict[str, torch.Tensor]:
-        return self.objects(crops, geometry)
+        """Logits of object crops; in eval mode the mean over the crop and its mirror image (attributes are
+        mirror-invariant, and averaging the two readings costs one more pass of a small network)."""
+        out = self.objects(crops, geometry)
+        if not self.training:
+            flipped = self.objects(crops.flip(-1), mirror_object_geometry(geometry))
+            out = {h: (v + flipped[h]) / 2 for h, v in out.items()}
+        return out
 
     def part_logits(self, crops: torch.Tensor, geometry: torch.Tensor, reference: torch.Tensor
                     ) -> dict[str, torch.Tensor]:
-        return self.parts(crops, torch.cat([geometry, reference], 1))
+        """Logits of part crops (with their objects' looks); mirror-averaged in eval mode like objects."""
+        out = self.parts(crops, torch.cat([geometry, reference], 1))
+        if not self.training:
+            flipped = self.parts(crops.flip(-1), torch.cat([mirror_part_geometry(geometry), reference], 1))
+            out = {h: (v + flipped[h]) / 2 for h, v in out.items()}
+        return out
 
     def calibrate(self, logits: Mapping[str, torch.Tensor], level: str, calibrated: bool = True
                   ) -> dict[str, torch.Tensor]:
@@ -474,12 +551,14 @@ class AttributeNet(nn.Module):
         return self.temperatures()
 
 
-def fit_temperature(logits: torch.Tensor, labels: torch.Tensor, low: float = 0.05, high: float = 20.0,
-                    steps: int = 241) -> float:
+def fit_temperature(logits: torch.Tensor, labels: torch.Tensor, low: float = 0.25, high: float = 20.0,
+                    steps: int = 201) -> float:
     """The temperature in [low, high] (log-spaced grid, then a finer grid around the best) that minimises the NLL.
 
     A grid rather than gradient descent: one scalar, deterministic, no learning rate to tune, and NLL(T) is
-    unimodal in log T in practice."""
+    unimodal in log T in practice. The floor ``low`` matters when the validation split has no error at all (size):
+    the NLL then keeps falling as T -> 0, and a near-zero temperature would turn any later mistake into an
+    impossible event for the reasoning engine."""
     keep = labels >= 0
     logits, labels = logits[keep].double(), labels[keep]
     if labels.numel() == 0:

@@ -42,12 +42,16 @@ import torch.nn.functional as F
 from po3d_ppl import ontology
 from po3d_ppl.errors import InputError
 from po3d_ppl.perception.attributes import (
+    DENSE_MIRROR,
     OBJECT_HEADS,
     PART_HEADS,
     AttributeConfig,
     AttributeNet,
+    crop_values,
     expected_calibration_error,
     mask_boxes,
+    mirror_object_geometry,
+    mirror_part_geometry,
     object_inputs,
     part_inputs,
 )
@@ -57,7 +61,7 @@ MIN_TRAIN_PART_PIXELS = 5
 #: Parts are measured from this many visible pixels: the world's ``SceneConfig.min_part_pixels``, the smallest part
 #: it may recolour.
 MEASURE_PART_PIXELS = 20
-CACHE_FORMAT = 1
+CACHE_FORMAT = 2
 
 
 # --- crops of a dataset ----------------------------------------------------------------------------------------------
@@ -66,7 +70,8 @@ CACHE_FORMAT = 1
 @dataclass
 class AttributeData:
     """Crops and labels of one split. Objects: ``object_crops`` uint8 [No, 4, s, s], ``object_geometry`` [No, 6],
-    ``object_labels`` [No, 4] (subtype, colour, material, size ids), ``object_image`` [No]. Parts: ``part_crops``
+    ``object_labels`` [No, 4] (subtype, colour, material, size ids), ``object_image`` [No], ``object_parts`` uint8
+    [No, s/8, s/8] (the dense auxiliary target, ``attributes.DENSE_CLASSES``). Parts: ``part_crops``
     uint8 [Np, 5, s', s'], ``part_geometry`` [Np, 5], ``part_labels`` [Np, 3] (recoloured, colour, material; -1 for
     the colour and material of plain parts), ``part_owner`` [Np] (row in the objects), ``part_pixels`` [Np]."""
 
@@ -74,6 +79,7 @@ class AttributeData:
     object_geometry: torch.Tensor
     object_labels: torch.Tensor
     object_image: torch.Tensor
+    object_parts: torch.Tensor
     part_crops: torch.Tensor
     part_geometry: torch.Tensor
     part_labels: torch.Tensor
@@ -135,8 +141,13 @@ def scene_data(pixels: torch.Tensor, scene, config: AttributeConfig, image: int 
     h, w = pixels.shape[1:]
     masks, parts = scene_masks(scene, h, w)
     objs = object_inputs(pixels, masks, config)
-    parts = [p for p in parts if int(p[2].sum()) >= min_part_pixels]
     n = len(scene.objects)
+    dense = masks.to(torch.uint8)  # 1 = the object's body, then its raw parts
+    for i, raw, mask in parts:
+        dense[i][mask] = 2 + ontology.RAW_PART_NAMES.index(raw)
+    cells, inside = crop_values(dense, torch.arange(n), objs.windows, config.object_size // 8)
+    dense_crops = torch.where(inside, cells, torch.zeros_like(cells))
+    parts = [p for p in parts if int(p[2].sum()) >= min_part_pixels]
     labels = torch.tensor([[ontology.SUBTYPES.index(o.subtype), ontology.COLORS.index(o.color),
                             ontology.MATERIALS.index(o.material), ontology.SIZES.index(o.size)]
                            for o in scene.objects], dtype=torch.long).reshape(n, len(OBJECT_HEADS))
@@ -158,7 +169,7 @@ def scene_data(pixels: torch.Tensor, scene, config: AttributeConfig, image: int 
         crops, geometry = torch.zeros((0, 5, s, s)), torch.zeros((0, 5))
         owner, counts, plabels = (torch.zeros(0, dtype=torch.long), torch.zeros(0, dtype=torch.long),
                                   torch.zeros((0, 3), dtype=torch.long))
-    return AttributeData(_uint8(objs.crops), objs.geometry.float(), labels, torch.full((n,), image),
+    return AttributeData(_uint8(objs.crops), objs.geometry.float(), labels, torch.full((n,), image), dense_crops,
                          _uint8(crops), geometry.float(), plabels, owner, counts.long())
 
 
@@ -166,7 +177,8 @@ def _dataset_root(data: Path | str) -> Path:
     root = Path(data)
     for needed in ("scenes.json", "splits.json", "images"):
         if not (root / needed).exists():
-            raise InputError("--data", f"{root} has no {needed}; build a dataset with `po3d dataset build --out {root}`")
+            raise InputError("--data", f"{root} has no {needed}; build a dataset with "
+                                       f"`po3d dataset build --out {root}`")
     return root
 
 
@@ -249,11 +261,11 @@ class TrainConfig:
     """Training settings (all stored in the model's manifest entry)."""
 
     seed: int = 0
-    epochs: int = 24
+    epochs: int = 28
     #: Objects per step; each step also takes ceil(part_fraction * parts / steps) parts.
     batch_size: int = 32
     #: Fraction of the parts seen per epoch (a random subset each epoch: parts outnumber objects 12 to 1).
-    part_fraction: float = 0.5
+    part_fraction: float = 0.25
     lr: float = 3e-3
     weight_decay: float = 1e-4
     #: The ground-truth object look given to the part head is (1 - smoothing) one-hot + smoothing / K.
@@ -261,6 +273,10 @@ class TrainConfig:
     flip: bool = True
     #: Probability of dilating (and, separately, of eroding) a crop's mask channels by one pixel.
     mask_jitter: float = 0.25
+    #: Weight of the object network's dense part-segmentation loss (auxiliary shape supervision).
+    dense_weight: float = 0.5
+    #: Object windows are scaled by up to +-this fraction and shifted by up to +-this fraction of half their side.
+    window_jitter: float = 0.08
     max_steps: int | None = None
     net: AttributeConfig = field(default_factory=AttributeConfig)
 
@@ -280,9 +296,11 @@ class TrainConfig:
 
 
 def _augment(crops: torch.Tensor, geometry: torch.Tensor, mirror: Callable[[torch.Tensor], torch.Tensor],
-             config: TrainConfig, g: torch.Generator) -> tuple[torch.Tensor, torch.Tensor]:
-    """Random flips (geometry mirrored by ``mirror``) and one-pixel mask dilation/erosion, per sample."""
+             config: TrainConfig, g: torch.Generator) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Random flips (geometry mirrored by ``mirror``) and one-pixel mask dilation/erosion, per sample; and which
+    samples were flipped."""
     b = crops.shape[0]
+    flip = torch.zeros(b, dtype=torch.bool)
     if config.flip:
         flip = torch.rand(b, generator=g) < 0.5
         crops = torch.where(flip[:, None, None, None], crops.flip(-1), crops)
@@ -295,19 +313,27 @@ def _augment(crops: torch.Tensor, geometry: torch.Tensor, mirror: Callable[[torc
         masks = torch.where((u < config.mask_jitter)[:, None, None, None], grown,
                             torch.where((u > 1 - config.mask_jitter)[:, None, None, None], shrunk, masks))
         crops = torch.cat([crops[:, :3], masks], 1)
-    return crops, geometry
+    return crops, geometry, flip
 
 
-def _mirror_object(geometry: torch.Tensor) -> torch.Tensor:
-    out = geometry.clone()
-    out[:, 0] = 1 - out[:, 0]
-    return out
-
-
-def _mirror_part(geometry: torch.Tensor) -> torch.Tensor:
-    out = geometry.clone()
-    out[:, 3] = -out[:, 3]
-    return out
+def _jitter(crops: torch.Tensor, dense: torch.Tensor, config: TrainConfig, g: torch.Generator
+            ) -> tuple[torch.Tensor, torch.Tensor]:
+    """Random scale and shift of object crops (the parser's boxes will not sit where the ground truth's do), the
+    dense target moved with them (nearest; cells pushed out of the crop become "not this object")."""
+    b = crops.shape[0]
+    if config.window_jitter <= 0 or b == 0:
+        return crops, dense
+    scale = 1 + (torch.rand(b, generator=g) * 2 - 1) * config.window_jitter
+    shift = (torch.rand(b, 2, generator=g) * 2 - 1) * config.window_jitter
+    theta = torch.zeros(b, 2, 3)
+    theta[:, 0, 0] = theta[:, 1, 1] = scale
+    theta[:, :, 2] = shift
+    grid = F.affine_grid(theta, list(crops.shape), align_corners=False)
+    rgb = F.grid_sample(crops[:, :3], grid, mode="bilinear", padding_mode="zeros", align_corners=False)
+    masks = F.grid_sample(crops[:, 3:], grid, mode="nearest", padding_mode="zeros", align_corners=False)
+    cells = F.affine_grid(theta, [b, 1, *dense.shape[1:]], align_corners=False)
+    moved = F.grid_sample(dense[:, None].float(), cells, mode="nearest", padding_mode="zeros", align_corners=False)
+    return torch.cat([rgb, masks], 1), moved[:, 0].round().long()
 
 
 def ground_truth_reference(data: AttributeData, owner: torch.Tensor, smoothing: float) -> torch.Tensor:
@@ -321,14 +347,19 @@ def ground_truth_reference(data: AttributeData, owner: torch.Tensor, smoothing: 
 
 def _losses(net: AttributeNet, data: AttributeData, objects: torch.Tensor, parts: torch.Tensor, config: TrainConfig,
             g: torch.Generator, device: torch.device) -> dict[str, torch.Tensor]:
-    crops, geom = _augment(data.object_crops[objects].float() / 255, data.object_geometry[objects], _mirror_object,
-                           config, g)
+    crops, geom, flip = _augment(data.object_crops[objects].float() / 255, data.object_geometry[objects],
+                                 mirror_object_geometry, config, g)
+    dense = data.object_parts[objects].long()
+    dense = torch.where(flip[:, None, None], DENSE_MIRROR[dense.flip(-1)], dense)
+    crops, dense = _jitter(crops, dense, config, g)
     out = net.object_logits(crops.to(device), geom.to(device))
     labels = data.object_labels[objects].to(device)
     losses = {f"object.{h}": F.cross_entropy(out[h], labels[:, i]) for i, h in enumerate(OBJECT_HEADS)}
+    if config.dense_weight > 0 and "dense" in out:
+        losses["object.dense"] = config.dense_weight * F.cross_entropy(out["dense"], dense.to(device))
     if parts.numel():
-        crops, geom = _augment(data.part_crops[parts].float() / 255, data.part_geometry[parts], _mirror_part, config,
-                               g)
+        crops, geom, _ = _augment(data.part_crops[parts].float() / 255, data.part_geometry[parts],
+                                  mirror_part_geometry, config, g)
         ref = ground_truth_reference(data, data.part_owner[parts], config.reference_smoothing)
         out = net.part_logits(crops.to(device), geom.to(device), ref.to(device))
         labels = data.part_labels[parts].to(device)
