@@ -22,6 +22,10 @@ same seed, data and thread count give bit-identical weights.
 
 **Calibration.** After training, one temperature per head is fitted on the validation split's crops, with the
 part head's reference taken from the object head's own (calibrated) output, as at inference.
+
+**Measured** (the shipped weights; ``docs/perception.md`` has the table per category and the command): trained on
+seed 711's train and test splits in 512 s on one thread; on all 120 images of seed 713 with ground-truth masks,
+subtype 0.728, colour 0.962, material 0.925, size 1.000, part style (plain / colour / material) 0.933.
 """
 
 from __future__ import annotations
