@@ -35,6 +35,17 @@ def test_perceive_writes_the_record_and_an_overlay(image_path, tmp_path):
     overlay = cv2.imread(str(tmp_path / "out" / "overlay.png"))
     assert overlay is not None and overlay.shape == (480, 640, 3)  # drawn at the parser's working size
     assert "1 objects" in result.output
+    reading = json.loads((tmp_path / "out" / "evidence.json").read_text())
+    assert len(reading["objects"]) == 1
+    assert ontology.CATEGORY_OF[next(iter(reading["objects"][0]["subtype"]))] == ontology.CATEGORY_OF[truth.subtype]
+    assert cv2.imread(str(tmp_path / "out" / "scene.png")).shape == (480, 640, 3)
+    from safetensors import safe_open
+
+    from po3d_ppl.evaluation.cache import evidence_from_tensors
+
+    with safe_open(str(tmp_path / "out" / "evidence.safetensors"), framework="pt") as f:
+        evidence = evidence_from_tensors({k: f.get_tensor(k) for k in f.keys()}, f.metadata())  # noqa: SIM118
+    assert evidence.num_objects == 1 and evidence.camera is not None
 
 
 def test_an_unreadable_image_is_a_one_line_error(monkeypatch, capsys, tmp_path):

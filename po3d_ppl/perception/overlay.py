@@ -60,3 +60,92 @@ def draw_overlay(image_rgb: np.ndarray, proposals, record: dict | None = None, a
         cv2.putText(out, label, (x, max(y - 4, 10)), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 3, cv2.LINE_AA)
         cv2.putText(out, label, (x, max(y - 4, 10)), cv2.FONT_HERSHEY_SIMPLEX, 0.4, colour, 1, cv2.LINE_AA)
     return out
+
+
+def _probs(logits: torch.Tensor, names) -> dict[str, float]:
+    return {name: float(p) for name, p in zip(names, torch.softmax(logits, -1).tolist())}
+
+
+def evidence_record(parsed) -> dict:
+    """A JSON-ready reading of a :class:`~po3d_ppl.perception.scene_parser.ParsedScene`: per object the existence
+    probability, the top subtypes, colour, material, size and pose, P(occluded) and the likely occluders, and its
+    most likely subtype's visible, occluded and recoloured parts (probability > 0.5)."""
+    from po3d_ppl.evidence import STATE_COLOR, STATE_MATERIAL
+
+    ev = parsed.evidence
+    out = []
+    for i in range(ev.num_objects):
+        subtypes = _probs(ev.subtype_loglik[i], ontology.SUBTYPES)
+        best = max(subtypes, key=subtypes.get)
+        s = ontology.SUBTYPES.index(best)
+        c = ontology.CATEGORIES.index(ontology.CATEGORY_OF[best])
+        pose = torch.softmax(ev.pose_loglik[i, c], -1)
+        azimuth = float(ev.pose_support[i, int(pose.argmax())])
+        parts = []
+        for p, raw in enumerate(ontology.PARTS[best]):
+            visible = float(torch.sigmoid(ev.part_visible_logodds[i, s, p]))
+            if visible <= 0.5:
+                continue
+            style = torch.softmax(ev.part_style_loglik[i, s, p], -1)
+            k = int(style.argmax())
+            entry = {"part": raw, "visible": visible,
+                     "occluded": float(torch.sigmoid(ev.part_occluded_logodds[i, s, p]))}
+            if k > 0:
+                entry["recoloured"] = {"color": ontology.COLORS[int(STATE_COLOR[k + 1])],
+                                       "material": ontology.MATERIALS[int(STATE_MATERIAL[k + 1])],
+                                       "probability": float(style[k])}
+            parts.append(entry)
+        occluders = torch.sigmoid(ev.occludes_logodds[i])
+        out.append({
+            "exists": float(torch.sigmoid(ev.exist_logodds[i])),
+            "subtype": dict(sorted(subtypes.items(), key=lambda kv: -kv[1])[:3]),
+            "color": _probs(ev.color_loglik[i], ontology.COLORS),
+            "material": _probs(ev.material_loglik[i], ontology.MATERIALS),
+            "size": _probs(ev.size_loglik[i], ontology.SIZES),
+            "azimuth_degree": azimuth, "pose_label": ontology.pose_label(azimuth),
+            "position": [float(v) for v in ev.positions[i]], "depth": float(ev.depths[i]),
+            "occluded": float(torch.sigmoid(ev.occluded_logodds[i])),
+            "occluded_by": {int(j): float(occluders[j]) for j in range(ev.num_objects) if j != i and occluders[j] > 0.5},
+            "parts": parts,
+        })
+    return {"objects": out, "timings_s": dict(parsed.timings), "notes": list(parsed.notes)}
+
+
+def draw_scene_overlay(image_rgb: np.ndarray, parsed, record: dict | None = None) -> np.ndarray:
+    """The most likely scene drawn on ``image_rgb``: each object's projected mesh outlined in its category's colour
+    and labelled (subtype, colour, material), its visible parts outlined (white; red where P(occluded) > 0.5) and
+    an arrow from each likely occluder to the object it hides."""
+    entries = (record or evidence_record(parsed))["objects"]
+    out = np.ascontiguousarray((0.75 * image_rgb.astype(np.float32)).astype(np.uint8))
+    if parsed.object_ids is None:
+        return out
+    ids, part_ids = parsed.object_ids, parsed.part_ids
+    centres = {}
+    for i, entry in enumerate(entries):
+        subtype = next(iter(entry["subtype"]))
+        colour = CATEGORY_RGB[ontology.CATEGORIES.index(ontology.CATEGORY_OF[subtype])]
+        own = (ids == i).astype(np.uint8)
+        if not own.any():
+            continue
+        occluded = {ontology.part_id(subtype, p["part"]) for p in entry["parts"] if p["occluded"] > 0.5}
+        for p in np.unique(part_ids[ids == i]):
+            if p < 0:
+                continue
+            mask = ((ids == i) & (part_ids == p)).astype(np.uint8)
+            contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+            cv2.drawContours(out, contours, -1, (230, 40, 40) if p in occluded else (235, 235, 235), 1)
+        contours, _ = cv2.findContours(own, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+        cv2.drawContours(out, contours, -1, colour, 2)
+        ys, xs = np.nonzero(own)
+        centres[i] = (int(xs.mean()), int(ys.mean()))
+        colour_name = max(entry["color"], key=entry["color"].get)
+        material = max(entry["material"], key=entry["material"].get)
+        label = f"{i} {ontology.readable_name(subtype)} {colour_name} {material}"
+        at = (int(xs.min()), max(int(ys.min()) - 4, 10))
+        cv2.putText(out, label, at, cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 3, cv2.LINE_AA)
+        cv2.putText(out, label, at, cv2.FONT_HERSHEY_SIMPLEX, 0.4, colour, 1, cv2.LINE_AA)
+    for i, entry in enumerate(entries):
+        for j in entry["occluded_by"]:
+            if i in centres and int(j) in centres:
+                cv2.arrowedLine(out, centres[int(j)], centres[i], (230, 40, 40), 2, cv2.LINE_AA, tipLength=0.08)
+    return out

@@ -87,6 +87,10 @@ class ParsedScene:
     projections: list[Projection]
     timings: dict[str, float] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
+    #: The most likely scene rendered: per pixel the proposal seen (-1 none) and its part id (-1 body or none),
+    #: [H, W] int arrays (for overlays; the tables average over more hypotheses than this one).
+    object_ids: np.ndarray | None = None
+    part_ids: np.ndarray | None = None
 
 
 def _logodds(p: np.ndarray, floor: float) -> np.ndarray:
@@ -190,8 +194,8 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
 
     pose_ll = proposals.pose_loglik
     t0 = time.perf_counter()
-    tables, projections, positions, depths = _project(proposals, subtype_ll, size_ll, pose_ll, camera, config,
-                                                      attributes, img)
+    tables, projections, positions, depths, best_view = _project(proposals, subtype_ll, size_ll, pose_ll, camera,
+                                                                 config, attributes, img)
     timings["projection"] = time.perf_counter() - t0
     evidence = SceneEvidence(
         exist_logodds=exist.to(DTYPE), subtype_loglik=subtype_ll.to(DTYPE), color_loglik=color_ll,
@@ -201,7 +205,8 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
         directions={k: torch.tensor(v, dtype=DTYPE) for k, v in camera.ground_directions().items()},
         boxes=proposals.boxes.to(DTYPE), masks=proposals.masks, camera=camera, **tables)
     timings["total"] = time.perf_counter() - start
-    return ParsedScene(evidence, proposals, projections, timings, tuple(notes))
+    object_ids, part_ids = best_view if best_view is not None else (None, None)
+    return ParsedScene(evidence, proposals, projections, timings, tuple(notes), object_ids, part_ids)
 
 
 def _project(proposals, subtype_ll: torch.Tensor, size_ll: torch.Tensor, pose_ll: torch.Tensor, camera: Camera,
@@ -223,7 +228,7 @@ def _project(proposals, subtype_ll: torch.Tensor, size_ll: torch.Tensor, pose_ll
                       "part_visible_logodds": torch.zeros(0, S, P, dtype=DTYPE), "part_style_loglik": part_style,
                       "part_occluded_logodds": torch.zeros(0, S, P, dtype=DTYPE),
                       "part_occludes_logodds": torch.zeros(0, S, P, 0, dtype=DTYPE)}
-        return tables, projections, positions, depths
+        return tables, projections, positions, depths, None
     sizes = [ontology.SIZES[int(i)] for i in size_ll.argmax(-1)]
     xy = proposals.positions[:, :2].tolist()
     weights = _subtype_weights(subtype_ll, config)
@@ -276,7 +281,12 @@ def _project(proposals, subtype_ll: torch.Tensor, size_ll: torch.Tensor, pose_ll
         "part_occluded_logodds": torch.tensor(_logodds(part_occluded, floor), dtype=DTYPE),
         "part_occludes_logodds": torch.tensor(_logodds(part_occludes, floor), dtype=DTYPE),
     }
-    return tables, projections, positions, depths
+    from po3d_ppl.world.renderer import composite
+
+    scene = composite(projector.views, projector.meshes, camera)
+    seen = scene.object_ids.astype(np.int64)
+    best_view = (seen, np.where(seen >= 0, scene.part_ids, -1).astype(np.int64))
+    return tables, projections, positions, depths, best_view
 
 
 @dataclass(frozen=True)
