@@ -49,7 +49,7 @@ def test_answer_words():
 def test_normaliser_corrects_typos_splits_and_joins():
     norm = Normaliser({"red": 50, "car": 90, "cars": 40, "behind": 30, "school": 20, "bus": 60, "wheel": 10,
                        "rear": 10, "sidestand": 3, "the": 99, "how": 9, "many": 9, "are": 9})
-    out = norm("how many redd carz are behnd the schoolbus".split())
+    out = norm(["how", "many", "redd", "carz", "are", "behnd", "the", "schoolbus"])
     assert out.words == ("how", "many", "red", "car", "are", "behind", "the", "school", "bus")
     assert ("redd", "red") in out.corrections and ("schoolbus", "school bus") in out.corrections
     assert norm(["side", "stand"]).words == ("sidestand",)

@@ -27,11 +27,27 @@ from po3d_ppl.language.tokens import program_from_tokens, program_to_tokens
 from po3d_ppl.language.typecheck import TypedNode, TypedProgram, check_program
 
 __all__ = [
-    "Node", "Program", "Span", "TypedNode", "TypedProgram",
-    "parse_program", "check_program", "as_typed_program", "program_from_json", "program_to_json", "program_to_text",
-    "program_to_tokens", "program_from_tokens", "QuestionParser",
-    "ProgramError", "ProgramSyntaxError", "ProgramStructureError", "ProgramArityError", "ProgramTypeError",
-    "ProgramValueError", "UnknownProgramNameError",
+    "Node",
+    "Program",
+    "ProgramArityError",
+    "ProgramError",
+    "ProgramStructureError",
+    "ProgramSyntaxError",
+    "ProgramTypeError",
+    "ProgramValueError",
+    "QuestionParser",
+    "Span",
+    "TypedNode",
+    "TypedProgram",
+    "UnknownProgramNameError",
+    "as_typed_program",
+    "check_program",
+    "parse_program",
+    "program_from_json",
+    "program_from_tokens",
+    "program_to_json",
+    "program_to_text",
+    "program_to_tokens",
 ]
 
 

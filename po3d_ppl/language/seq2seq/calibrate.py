@@ -1,14 +1,14 @@
 """Fitting the parser's confidence calibration (:class:`~po3d_ppl.language.seq2seq.model_io.Calibration`).
 
-The development questions are held-out corpus questions (a seed the model never trained on) and copies of them
-with the damage real questions bring: a word replaced by a word the parser never saw, a word with a typo, a word
-dropped. Each is parsed; the features are the logit of the top parse's model probability and the numbers of
+The development questions are held-out corpus questions (a seed the model never trained on), some with the damage
+real questions bring (:func:`perturb`: a typo, an unseen filler word, a word replaced by an unseen one). Each is parsed; the features are the logit of the top parse's model probability and the numbers of
 unknown and corrected words, the label whether the top parse is the gold program. Logistic regression (Newton's
 method, a small L2 penalty) gives the four numbers. The independent test set is never used.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -17,7 +17,6 @@ import numpy as np
 
 from po3d_ppl.language.seq2seq.data import Example
 from po3d_ppl.language.tokens import program_to_tokens
-import itertools
 
 #: Words no question uses, to stand for the unknown words of real questions.
 _STRANGERS = ("blorp", "quixotic", "zephyr", "kumquat", "marzipan", "wobbly", "glimmering", "xylophone", "tundra",
@@ -46,20 +45,22 @@ def _typo(word: str, rng: np.random.Generator) -> str:
 
 
 def perturb(question: str, rng: np.random.Generator) -> str:
-    """``question`` with one kind of damage (or none), chosen at random."""
+    """``question`` unchanged (two times in five) or with one kind of damage real questions have: a typo in a word,
+    a filler word the parser never saw, or a word replaced by one it never saw (which may leave the question
+    undecidable: the parse is then likely wrong, and the confidence should say so). No deletions: they change the
+    question's meaning while its gold program stays, which would mislabel the development set."""
     words = question.rstrip("?.").split()
     kind = int(rng.integers(5))
-    if kind == 0 or len(words) < 3:
+    if kind <= 1 or len(words) < 3:
         return question
     i = int(rng.integers(len(words)))
-    if kind == 1:
-        words[i] = _STRANGERS[int(rng.integers(len(_STRANGERS)))]
-    elif kind == 2:
-        words.insert(i, _STRANGERS[int(rng.integers(len(_STRANGERS)))])
-    elif kind == 3:
+    stranger = _STRANGERS[int(rng.integers(len(_STRANGERS)))]
+    if kind == 2:
         words[i] = _typo(words[i], rng)
+    elif kind == 3:
+        words.insert(i, stranger)
     else:
-        del words[i]
+        words[i] = stranger
     return " ".join(words) + "?"
 
 
