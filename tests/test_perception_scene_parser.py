@@ -19,7 +19,7 @@ from po3d_ppl.world.sampler import ObjectSpec
 def bus_behind_car():
     """A sedan in front of a school bus (the bus partly hidden), base camera."""
     specs = [ObjectSpec("school", "yellow", "rubber", "large", 30.0, -0.5, 0.5),
-             ObjectSpec("sedan", "red", "metal", "large", 100.0, 2.0, -1.2)]
+             ObjectSpec("sedan", "red", "metal", "large", 100.0, 1.2, -1.0)]
     return render_layout(specs, CameraPrior(640, 480).base)
 
 

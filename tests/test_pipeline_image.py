@@ -21,7 +21,7 @@ def pipeline():
 @pytest.fixture(scope="module")
 def two_vehicles():
     specs = [ObjectSpec("school", "yellow", "rubber", "large", 30.0, -0.5, 0.5),
-             ObjectSpec("sedan", "red", "metal", "large", 100.0, 2.0, -1.2)]
+             ObjectSpec("sedan", "red", "metal", "large", 100.0, 1.2, -1.0)]
     return render_layout(specs, CameraPrior(640, 480).base).image
 
 

@@ -18,14 +18,27 @@ _LIMIT = typer.Option(None, "--limit", min=1, help="Only the first N images.")
 _THREADS = typer.Option(1, "--threads", min=1, help="torch CPU threads (one is fastest on a busy 2-core machine).")
 
 
-def _parse_all(data: Path, split, limit, calibration, console, label: str):
+def _parse_all(data: Path, split, limit, calibration, console, label: str, scene: bool = False):
+    import dataclasses
+
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
     from po3d_ppl.evaluation.objects import parse_dataset
     from po3d_ppl.perception.object_parser import parse_objects
 
-    def parse(image):
-        return parse_objects(image, calibration=calibration)
+    if scene:  # the scene parser's geometry: positions and depths under its estimated camera
+        from po3d_ppl.perception.scene_parser import ImageParser
+
+        parser = ImageParser.load()
+
+        def parse(image):
+            parsed = parser.parse(image)
+            ev = parsed.evidence
+            return dataclasses.replace(parsed.proposals, positions=ev.positions, depths=ev.depths,
+                                       camera=ev.camera, timings=parsed.timings)
+    else:
+        def parse(image):
+            return parse_objects(image, calibration=calibration)
 
     with Progress(TextColumn(f"[bold]{label}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
                   console=console) as bar:
@@ -73,6 +86,9 @@ def eval_objects_command(
     data: Path = _DATA, split: str = _SPLIT, limit: int = _LIMIT, threads: int = _THREADS,
     json_out: Path = typer.Option(None, "--json", help="Write the figures here."),
     outcomes: Path = typer.Option(None, "--outcomes", help="Also write the per-image outcomes (JSON lines)."),
+    scene: bool = typer.Option(False, "--scene", help="Score the scene parser's geometry (positions and depths "
+                                                      "under the camera it estimates with the attribute network) "
+                                                      "instead of the object parser's (base camera)."),
 ) -> None:
     """Detection, category, azimuth, position, depth order and category calibration of the object parser (with
     the shipped calibration), overall, for objects >= 20% occluded and per category."""
@@ -83,7 +99,7 @@ def eval_objects_command(
 
     torch.set_num_threads(threads)
     console = Console()
-    results = _parse_all(data, split, limit, None, console, "parse")
+    results = _parse_all(data, split, limit, None, console, "parse", scene)
     if outcomes is not None:
         save_outcomes(results, outcomes)
     figures = summarise(results)

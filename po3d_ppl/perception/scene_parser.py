@@ -56,6 +56,11 @@ class SceneParserConfig:
     max_subtypes: int = 5
     #: Probability floor on each side of a projected event, before log-odds.
     projection_floor: float = 0.05
+    #: Estimate the camera's height from the objects' sizes (needs the attribute network's subtypes), over this
+    #: many candidates across the prior's jitter, from proposals with at least this many visible pixels.
+    estimate_height: bool = True
+    height_candidates: int = 21
+    min_height_pixels: int = 200
 
     def __post_init__(self) -> None:
         if not (isinstance(self.pose_hypotheses, int) and self.pose_hypotheses >= 1):
@@ -194,8 +199,15 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
 
     pose_ll = proposals.pose_loglik
     t0 = time.perf_counter()
-    tables, projections, positions, depths, best_view = _project(proposals, subtype_ll, size_ll, pose_ll, camera,
-                                                                 config, attributes, img)
+    xy = proposals.positions[:, :2].tolist()
+    if config.estimate_height and attributes is not None and n:
+        camera, xy = estimate_camera_height(proposals, subtype_ll, size_ll, pose_ll, img, config)
+    else:
+        notes.append("camera height not estimated (the base camera's)")
+    timings["camera"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    tables, projections, positions, depths, best_view = _project(proposals, xy, subtype_ll, size_ll, pose_ll,
+                                                                 camera, config, attributes, img)
     timings["projection"] = time.perf_counter() - t0
     evidence = SceneEvidence(
         exist_logodds=exist.to(DTYPE), subtype_loglik=subtype_ll.to(DTYPE), color_loglik=color_ll,
@@ -209,8 +221,76 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
     return ParsedScene(evidence, proposals, projections, timings, tuple(notes), object_ids, part_ids)
 
 
-def _project(proposals, subtype_ll: torch.Tensor, size_ll: torch.Tensor, pose_ll: torch.Tensor, camera: Camera,
-             config: SceneParserConfig, attributes: AttributeNet | None, img: ImageInput):
+def _best_readings(subtype_ll: torch.Tensor, size_ll: torch.Tensor, pose_ll: torch.Tensor, support: torch.Tensor
+                   ) -> list[tuple[int, str, float, float]]:
+    """Per proposal: its most likely subtype, size and azimuth (degrees), and the subtype's probability."""
+    probs = torch.softmax(subtype_ll, -1)
+    out = []
+    for i in range(subtype_ll.shape[0]):
+        s = int(probs[i].argmax())
+        k = int(pose_ll[i, int(SUBTYPE_CATEGORY[s])].argmax())
+        out.append((s, ontology.SIZES[int(size_ll[i].argmax())], float(support[i, k]), float(probs[i, s])))
+    return out
+
+
+def estimate_camera_height(proposals, subtype_ll: torch.Tensor, size_ll: torch.Tensor, pose_ll: torch.Tensor,
+                           img: ImageInput, config: SceneParserConfig) -> tuple[Camera, list[list[float]]]:
+    """The camera's height offset that best fits the objects' sizes, and the proposals' ground positions under it.
+
+    Scaling the scene about the camera leaves the image unchanged, so the height shows only through objects of
+    known size: each proposal's most likely subtype mesh (exact dimensions, unlike the category mesh that encloses
+    every subtype) is placed under the same image point and pose at every candidate height of the camera prior,
+    and its silhouette compared (IoU) with the proposal's visible mask on the pixels no other proposal owns. The
+    IoU curves, weighted by subtype confidence, are summed over proposals and the peak refined by a parabola.
+    Measured on 20 images of seed 712 (11 candidates): correlation 0.80 with the true offset, mean error 0.145
+    against 0.245 for the base camera."""
+    from po3d_ppl.perception.image_input import CameraPrior, backproject_to_plane
+    from po3d_ppl.world import renderer
+
+    prior = CameraPrior.for_image(img)
+    base = proposals.camera
+    offsets = np.linspace(-prior.jitter, prior.jitter, config.height_candidates)
+    base_xyz = torch.cat([proposals.positions[:, :2], torch.zeros(len(proposals), 1, dtype=DTYPE)], -1)
+    pixels = project_points(base, base_xyz)[:, :2]
+    ownership = proposals.ownership.numpy()
+    cameras = [prior.camera((0.0, 0.0, float(dz))) for dz in offsets]
+    grounds = [backproject_to_plane(cam, pixels) for cam in cameras]
+    total = np.zeros(len(offsets))
+    for i, (s, size, azimuth, confidence) in enumerate(_best_readings(subtype_ll, size_ll, pose_ll,
+                                                                       proposals.pose_support)):
+        mask = proposals.masks[i].numpy()
+        if mask.sum() < config.min_height_pixels:
+            continue
+        free = (ownership < 0) | (ownership == i)
+        curve = np.zeros(len(offsets))
+        for k, (cam, ground) in enumerate(zip(cameras, grounds)):
+            x, y = float(ground[i, 0]), float(ground[i, 1])
+            view = renderer.cast_alone(renderer.place_meshes([_spec(SUBTYPES[s], size, x, y,
+                                                                    _yaw(cam, x, y, azimuth))])[0], cam)
+            h, w = view.present.shape
+            window = (slice(view.y0, view.y0 + h), slice(view.x0, view.x0 + w))
+            silhouette = np.zeros_like(mask)
+            silhouette[window] = view.present
+            silhouette &= free
+            union = (silhouette | mask).sum()
+            curve[k] = (silhouette & mask).sum() / union if union else 0.0
+        total += confidence * curve
+    if not total.any():
+        return base, proposals.positions[:, :2].tolist()
+    best = int(np.argmax(total))
+    dz = float(offsets[best])
+    if 0 < best < len(offsets) - 1:  # parabola through the peak and its neighbours
+        left, mid, right = total[best - 1: best + 2]
+        bend = left - 2 * mid + right
+        if bend < 0:
+            dz += float(0.5 * (left - right) / bend) * float(offsets[1] - offsets[0])
+    camera = prior.camera((0.0, 0.0, dz))
+    return camera, backproject_to_plane(camera, pixels)[:, :2].tolist()
+
+
+def _project(proposals, xy: list[list[float]], subtype_ll: torch.Tensor, size_ll: torch.Tensor,
+             pose_ll: torch.Tensor, camera: Camera, config: SceneParserConfig, attributes: AttributeNet | None,
+             img: ImageInput):
     """Occlusion and part tables by projection, and positions (box centres) and depths of the best hypotheses."""
     n = len(proposals)
     floor = config.projection_floor
@@ -230,7 +310,6 @@ def _project(proposals, subtype_ll: torch.Tensor, size_ll: torch.Tensor, pose_ll
                       "part_occludes_logodds": torch.zeros(0, S, P, 0, dtype=DTYPE)}
         return tables, projections, positions, depths, None
     sizes = [ontology.SIZES[int(i)] for i in size_ll.argmax(-1)]
-    xy = proposals.positions[:, :2].tolist()
     weights = _subtype_weights(subtype_ll, config)
     support = proposals.pose_support
 
