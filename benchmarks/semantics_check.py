@@ -32,6 +32,9 @@ def main() -> None:
     parser.add_argument("--json", default=None)
     parser.add_argument("--max-seconds", type=float, default=120.0, help="exact inference's time budget per call")
     parser.add_argument("--limit", type=int, default=None, help="only the first N scenes")
+    parser.add_argument("--max-gib", type=float, default=2.0, help="exact inference's memory budget per call")
+    parser.add_argument("--families", default=None,
+                        help="only these families (comma-separated template:index, e.g. occlusion_by.json:17)")
     args = parser.parse_args()
 
     import torch
@@ -48,10 +51,12 @@ def main() -> None:
 
     data = load_dataset(args.data)
     by_scene: dict[int, list[tuple[str, dict]]] = {}
+    only = set(args.families.split(",")) if args.families else None
     for name, questions in data.questions.items():
         for q in questions:
-            by_scene.setdefault(q["image_index"], []).append((name, q))
-    budget = Budget(max_seconds=args.max_seconds)
+            if only is None or f"{q['template_filename']}:{q['question_family_index']}" in only:
+                by_scene.setdefault(q["image_index"], []).append((name, q))
+    budget = Budget(max_bytes=int(args.max_gib * 2**30), max_seconds=args.max_seconds)
     totals = Counter()
     differ: Counter = Counter()
     per_family: Counter = Counter()

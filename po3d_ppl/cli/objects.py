@@ -35,7 +35,7 @@ def _parse_all(data: Path, split, limit, calibration, console, label: str, scene
             parsed = parser.parse(image)
             ev = parsed.evidence
             return dataclasses.replace(parsed.proposals, positions=ev.positions, depths=ev.depths,
-                                       camera=ev.camera, timings=parsed.timings)
+                                       camera=ev.camera, pose_loglik=ev.pose_loglik, timings=parsed.timings)
     else:
         def parse(image):
             return parse_objects(image, calibration=calibration)
@@ -88,7 +88,8 @@ def eval_objects_command(
     outcomes: Path = typer.Option(None, "--outcomes", help="Also write the per-image outcomes (JSON lines)."),
     scene: bool = typer.Option(False, "--scene", help="Score the scene parser's geometry (positions and depths "
                                                       "under the camera it estimates with the attribute network) "
-                                                      "instead of the object parser's (base camera)."),
+                                                      "and its pose tables (with the silhouette term) instead of "
+                                                      "the object parser's."),
 ) -> None:
     """Detection, category, azimuth, position, depth order and category calibration of the object parser (with
     the shipped calibration), overall, for objects >= 20% occluded and per category."""

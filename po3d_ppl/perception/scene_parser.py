@@ -233,6 +233,22 @@ def _best_readings(subtype_ll: torch.Tensor, size_ll: torch.Tensor, pose_ll: tor
     return out
 
 
+def _silhouette(spec, camera: Camera, shape: tuple[int, int]) -> np.ndarray:
+    """[H, W] bool: the pixels the world's mesh of ``spec`` covers, alone (embree, cropped to its box)."""
+    from po3d_ppl.world import renderer
+
+    view = renderer.cast_alone(renderer.place_meshes([spec])[0], camera)
+    out = np.zeros(shape, dtype=bool)
+    h, w = view.present.shape
+    out[view.y0:view.y0 + h, view.x0:view.x0 + w] = view.present
+    return out
+
+
+def _iou(a: np.ndarray, b: np.ndarray) -> float:
+    union = int((a | b).sum())
+    return int((a & b).sum()) / union if union else 0.0
+
+
 def estimate_camera_height(proposals, subtype_ll: torch.Tensor, size_ll: torch.Tensor, pose_ll: torch.Tensor,
                            img: ImageInput, config: SceneParserConfig) -> tuple[Camera, list[list[float]]]:
     """The camera's height offset that best fits the objects' sizes, and the proposals' ground positions under it.
@@ -245,7 +261,6 @@ def estimate_camera_height(proposals, subtype_ll: torch.Tensor, size_ll: torch.T
     Measured on 20 images of seed 712 (11 candidates): correlation 0.80 with the true offset, mean error 0.145
     against 0.245 for the base camera."""
     from po3d_ppl.perception.image_input import CameraPrior, backproject_to_plane
-    from po3d_ppl.world import renderer
 
     prior = CameraPrior.for_image(img)
     base = proposals.camera
@@ -265,15 +280,8 @@ def estimate_camera_height(proposals, subtype_ll: torch.Tensor, size_ll: torch.T
         curve = np.zeros(len(offsets))
         for k, (cam, ground) in enumerate(zip(cameras, grounds)):
             x, y = float(ground[i, 0]), float(ground[i, 1])
-            view = renderer.cast_alone(renderer.place_meshes([_spec(SUBTYPES[s], size, x, y,
-                                                                    _yaw(cam, x, y, azimuth))])[0], cam)
-            h, w = view.present.shape
-            window = (slice(view.y0, view.y0 + h), slice(view.x0, view.x0 + w))
-            silhouette = np.zeros_like(mask)
-            silhouette[window] = view.present
-            silhouette &= free
-            union = (silhouette | mask).sum()
-            curve[k] = (silhouette & mask).sum() / union if union else 0.0
+            spec = _spec(SUBTYPES[s], size, x, y, _yaw(cam, x, y, azimuth))
+            curve[k] = _iou(_silhouette(spec, cam, mask.shape) & free, mask)
         total += confidence * curve
     if not total.any():
         return base, proposals.positions[:, :2].tolist()
