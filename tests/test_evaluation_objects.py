@@ -57,3 +57,29 @@ def test_summary_counts_detection_depth_order_and_occluded_subset():
     assert figures["occluded_20pct"]["objects"] == 1 and figures["occluded_20pct"]["azimuth_within_30"] == 0.0
     assert figures["category_accuracy"] == 1.0
     assert not math.isnan(figures["category_ece"])
+
+
+def test_certain_evidence_scores_perfectly_and_a_misread_is_counted():
+    import dataclasses
+
+    from po3d_ppl.evaluation.evidence_scores import EvidenceCounts
+    from po3d_ppl.evaluation.objects import EvidenceAsProposals, score_image
+    from po3d_ppl.perception import simulated_evidence
+    from po3d_ppl.world import generate_scene
+
+    scene = generate_scene(12).scene
+    evidence = simulated_evidence(scene)
+    counts = EvidenceCounts()
+    counts.add(evidence, scene)
+    figures = counts.figures()
+    assert figures["matched"] == len(scene.objects)
+    for key in ("subtype_accuracy", "color_accuracy", "material_accuracy", "size_accuracy",
+                "part_attribute_accuracy"):
+        assert figures[key] == 1.0, key
+    assert figures["object_occlusion_f1"] in (1.0, None) and figures["part_occlusion_f1"] in (1.0, None)
+    wrong = evidence.color_loglik.roll(1, dims=-1)  # every colour read as its neighbour
+    counts = EvidenceCounts()
+    counts.add(dataclasses.replace(evidence, color_loglik=wrong), scene)
+    assert counts.figures()["color_accuracy"] == 0.0
+    outcome = score_image(EvidenceAsProposals.of(evidence), scene, "x", 0.0)
+    assert all(o.proposal >= 0 and o.azimuth_error < 1e-6 for o in outcome.objects if o.visible_pixels >= 200)

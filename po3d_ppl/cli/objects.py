@@ -160,7 +160,50 @@ def train_background_command(
                   markup=False, highlight=False)
 
 
+def eval_evidence_command(
+    data: Path = _DATA, split: str = typer.Option("all", "--split", help="Split of --data (all: every image)."),
+    limit: int = _LIMIT, threads: int = _THREADS,
+    cache: Path = typer.Option(None, "--cache", help="Evidence cache directory (shared with `po3d eval vqa "
+                                                     "--perception image`; default: DATA/eval_cache)."),
+    json_out: Path = typer.Option(None, "--json", help="Write the figures here."),
+) -> None:
+    """Perception's evidence against ground truth: attributes, parts and occlusion (evaluation.evidence_scores)
+    and the object figures under the scene parser's camera, from the same cached evidence `po3d eval vqa
+    --perception image` uses (each image is parsed once)."""
+    import torch
+    from rich.console import Console
+    from rich.progress import track
+
+    from po3d_ppl.evaluation.backends import ImageBackend, Observation
+    from po3d_ppl.evaluation.cache import EvidenceCache
+    from po3d_ppl.evaluation.evidence_scores import EvidenceCounts
+    from po3d_ppl.evaluation.objects import EvidenceAsProposals, score_image, summarise
+    from po3d_ppl.questions.dataset import load_dataset
+
+    torch.set_num_threads(threads)
+    console = Console()
+    dataset = load_dataset(data)
+    indices = sorted(i for part in dataset.splits.values() for i in part) if split == "all" else \
+        sorted(dataset.splits.get(split, []))
+    indices = indices[:limit] if limit else indices
+    backend = ImageBackend()
+    store = EvidenceCache(cache if cache is not None else Path(data) / "eval_cache")
+    counts, outcomes = EvidenceCounts(), []
+    for index in track(indices, description="evidence", console=console):
+        scene = dataset.scene(index)
+        observation = Observation(index, dataset.image_path(index), scene)
+        evidence = store.get(observation.image_path, backend.identity(), lambda: backend.evidence(observation))
+        counts.add(evidence, scene)
+        outcomes.append(score_image(EvidenceAsProposals.of(evidence), scene, scene.image_filename, 0.0))
+    figures = {"evidence": counts.figures(), "objects": summarise(outcomes),
+               "cache": {"hits": store.hits, "misses": store.misses}}
+    if json_out is not None:
+        Path(json_out).write_text(json.dumps(figures, indent=1) + "\n")
+    console.print_json(json.dumps(figures))
+
+
 def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:
+    eval_app.command("evidence")(eval_evidence_command)
     train_app.command("calibration")(train_calibration_command)
     train_app.command("background")(train_background_command)
     eval_app.command("objects")(eval_objects_command)

@@ -312,3 +312,32 @@ def fit_calibration(outcomes: Sequence[ImageOutcome], min_pixels: int = 200):
     report = {"objects": len(target), "proposals": len(labels),
               "raw": figures(1.0, 1.0, 1.0, 0.0), "fitted": figures(t_category, t_pose, a, b)}
     return calibration, report
+
+
+@dataclass(frozen=True, eq=False)
+class EvidenceAsProposals:
+    """A :class:`~po3d_ppl.evidence.SceneEvidence` with the fields :func:`score_image` reads, so the object figures
+    can be computed from the scene parser's evidence (its estimated camera and positions, the subtype table's
+    category marginal) without parsing again: ``EvidenceAsProposals.of(evidence)``."""
+
+    boxes: torch.Tensor
+    category_loglik: torch.Tensor
+    pose_loglik: torch.Tensor
+    pose_support: torch.Tensor
+    positions: torch.Tensor
+    depths: torch.Tensor
+    existence_logodds: torch.Tensor
+    camera: object
+    timings: dict = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, evidence) -> EvidenceAsProposals:
+        from po3d_ppl.perception.scene_parser import SUBTYPE_CATEGORY
+
+        category = torch.stack([torch.logsumexp(evidence.subtype_loglik[:, SUBTYPE_CATEGORY == c], -1)
+                                for c in range(len(CATEGORIES))], -1)
+        return cls(evidence.boxes, category, evidence.pose_loglik, evidence.pose_support, evidence.positions,
+                   evidence.depths, evidence.exist_logodds, evidence.camera)
+
+    def __len__(self) -> int:
+        return int(self.existence_logodds.shape[0])

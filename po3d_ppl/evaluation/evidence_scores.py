@@ -1,0 +1,107 @@
+"""Perception's evidence against ground truth (issue "Perception II", Done means): attributes, parts, occlusion.
+
+Ground truth is read here only. Proposals are matched to objects by box IoU >= 0.5 (as in
+:mod:`po3d_ppl.evaluation.objects`); every figure below is over matched objects, read at the argmax (or at
+log-odds 0) of the evidence tables:
+
+- object subtype, colour, material and size accuracy;
+- part attribute accuracy over the visible parts of the true subtype (the world's rule: recoloured, or >= 20
+  visible pixels): plain vs recoloured, and when recoloured its colour and material, all three right;
+- object occlusion relations: F1 of "object i is occluded by object j" over ordered pairs of matched objects;
+- part occlusion: F1 of "part p of object i is occluded" over the parts of the true subtype.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from po3d_ppl import ontology
+from po3d_ppl.evaluation.objects import match_boxes
+
+
+@dataclass
+class EvidenceCounts:
+    """Counts summed over images; :meth:`figures` turns them into accuracies and F1s."""
+
+    counts: Counter = field(default_factory=Counter)
+
+    def add(self, evidence, scene, min_iou: float = 0.5) -> None:
+        from po3d_ppl.evidence import STATE_COLOR, STATE_MATERIAL, style_index
+        from po3d_ppl.perception.simulated import part_visible
+
+        c = self.counts
+        objs = scene.objects
+        boxes = np.array([o.annotation.bbox for o in objs], dtype=np.float64).reshape(-1, 4)
+        if evidence.boxes is None:
+            raise ValueError("the evidence carries no boxes to match objects by")
+        pairs = match_boxes(evidence.boxes.numpy(), boxes, min_iou)
+        c["objects"] += len(objs)
+        c["matched"] += len(pairs)
+        c["proposals"] += evidence.num_objects
+        of_truth = {j: i for i, j in pairs}
+        for i, j in pairs:
+            o = objs[j]
+            s = ontology.SUBTYPES.index(o.subtype)
+            c["subtype_ok"] += int(evidence.subtype_loglik[i].argmax()) == s
+            c["color_ok"] += int(evidence.color_loglik[i].argmax()) == ontology.COLORS.index(o.color)
+            c["material_ok"] += int(evidence.material_loglik[i].argmax()) == ontology.MATERIALS.index(o.material)
+            c["size_ok"] += int(evidence.size_loglik[i].argmax()) == ontology.SIZES.index(o.size)
+            for p, raw in enumerate(ontology.PARTS[o.subtype]):
+                truth_occluded = o.part_occluded(raw)
+                said_occluded = bool(evidence.part_occluded_logodds[i, s, p] > 0)
+                c["part_occ_tp"] += truth_occluded and said_occluded
+                c["part_occ_fp"] += said_occluded and not truth_occluded
+                c["part_occ_fn"] += truth_occluded and not said_occluded
+                if not part_visible(o, raw):
+                    continue
+                c["visible_parts"] += 1
+                c["part_visible_ok"] += bool(evidence.part_visible_logodds[i, s, p] > 0)
+                style = o.parts.get(raw)
+                truth = style_index(style.color, style.material) if style else 0
+                said = int(evidence.part_style_loglik[i, s, p].argmax())
+                c["part_style_ok"] += said == truth
+                c["part_look_ok"] += (said > 0) == (truth > 0)
+                if truth > 0:
+                    c["recoloured_parts"] += 1
+                    state = said + 1  # the part-state axis puts "hidden" first
+                    c["part_color_ok"] += int(STATE_COLOR[state]) == ontology.COLORS.index(style.color)
+                    c["part_material_ok"] += int(STATE_MATERIAL[state]) == ontology.MATERIALS.index(style.material)
+        for j, o in enumerate(objs):
+            if j not in of_truth:
+                continue
+            for k in range(len(objs)):
+                if k == j or k not in of_truth:
+                    continue
+                truth = k in o.occluded_by
+                said = bool(evidence.occludes_logodds[of_truth[j], of_truth[k]] > 0)
+                c["occ_tp"] += truth and said
+                c["occ_fp"] += said and not truth
+                c["occ_fn"] += truth and not said
+
+    def figures(self) -> dict[str, float | int | None]:
+        c = self.counts
+
+        def ratio(a: str, b: str) -> float | None:
+            return c[a] / c[b] if c[b] else None
+
+        def f1(prefix: str) -> float | None:
+            tp, fp, fn = c[f"{prefix}_tp"], c[f"{prefix}_fp"], c[f"{prefix}_fn"]
+            return 2 * tp / (2 * tp + fp + fn) if tp + fp + fn else None
+
+        return {
+            "objects": c["objects"], "matched": c["matched"], "proposals": c["proposals"],
+            "subtype_accuracy": ratio("subtype_ok", "matched"), "color_accuracy": ratio("color_ok", "matched"),
+            "material_accuracy": ratio("material_ok", "matched"), "size_accuracy": ratio("size_ok", "matched"),
+            "visible_parts": c["visible_parts"],
+            "part_attribute_accuracy": ratio("part_style_ok", "visible_parts"),
+            "part_look_accuracy": ratio("part_look_ok", "visible_parts"),
+            "part_color_accuracy_recoloured": ratio("part_color_ok", "recoloured_parts"),
+            "part_material_accuracy_recoloured": ratio("part_material_ok", "recoloured_parts"),
+            "part_visible_recall": ratio("part_visible_ok", "visible_parts"),
+            "object_occlusion_f1": f1("occ"), "part_occlusion_f1": f1("part_occ"),
+            "object_occlusion_counts": {k: c[f"occ_{k}"] for k in ("tp", "fp", "fn")},
+            "part_occlusion_counts": {k: c[f"part_occ_{k}"] for k in ("tp", "fp", "fn")},
+        }
