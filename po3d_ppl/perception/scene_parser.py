@@ -296,6 +296,25 @@ def estimate_camera_height(proposals, subtype_ll: torch.Tensor, size_ll: torch.T
     return camera, backproject_to_plane(camera, pixels)[:, :2].tolist()
 
 
+def _mixed_styles(attributes: AttributeNet, img: ImageInput, masks: torch.Tensor,
+                  part_maps: list[dict[tuple[int, int], torch.Tensor]], weights: torch.Tensor) -> torch.Tensor:
+    """The part-style table as a mixture over pose hypotheses: each hypothesis puts the parts elsewhere in the
+    image (a front/back flip swaps left and right), so the attribute network reads each one's part pixels and
+    the likelihoods are averaged with the hypotheses' weights. A slot a hypothesis does not show reads uniform."""
+    n = masks.shape[0]
+    mixture = torch.full((n, S, P, NUM_STYLES), -math.inf, dtype=DTYPE)
+    uniform = -math.log(NUM_STYLES)
+    for maps, w in zip(part_maps, weights):
+        if not maps:
+            continue
+        table = attributes.part_style_table(img, masks, maps, min_pixels=20).to(DTYPE).cpu()
+        read = table.abs().sum(-1, keepdim=True) > 0
+        table = torch.where(read, table, torch.full_like(table, uniform))
+        mixture = torch.logaddexp(mixture, torch.log(w.clamp_min(1e-300))[:, :, None, None] + table)
+    shown = torch.isfinite(mixture).all(-1, keepdim=True) & (weights.sum(0) > 0)[:, :, None, None]
+    return torch.where(shown, mixture - torch.logsumexp(mixture, -1, keepdim=True), torch.zeros_like(mixture))
+
+
 def _project(proposals, xy: list[list[float]], subtype_ll: torch.Tensor, size_ll: torch.Tensor,
              pose_ll: torch.Tensor, camera: Camera, config: SceneParserConfig, attributes: AttributeNet | None,
              img: ImageInput):
@@ -337,7 +356,8 @@ def _project(proposals, xy: list[list[float]], subtype_ll: torch.Tensor, size_ll
         centre = mesh.box_centre
         positions[i] = torch.tensor(centre, dtype=DTYPE)
         depths[i] = float(project_points(camera, np.asarray(centre, dtype=np.float64))[2])
-    part_maps: dict[tuple[int, int], torch.Tensor] = {}
+    part_maps: list[dict[tuple[int, int], torch.Tensor]] = [{} for _ in range(config.pose_hypotheses)]
+    map_weights = torch.zeros(config.pose_hypotheses, n, S, dtype=DTYPE)
     for i in range(n):
         for s, w_sub in weights[i]:
             parts = len(ontology.PARTS[SUBTYPES[s]])
@@ -354,11 +374,12 @@ def _project(proposals, xy: list[list[float]], subtype_ll: torch.Tensor, size_ll
                     part_occluded[i, s, p] += w_pose * bool(part_occluders[p])
                     for j in part_occluders[p]:
                         part_occludes[i, s, p, j] += w_pose
-                if rank == 0 and attributes is not None:  # the parts this hypothesis shows, for their looks
+                if attributes is not None:  # the parts this hypothesis shows, for their looks
                     own = gbuffer.geometry.reshape(gbuffer.height, gbuffer.width) == 0
-                    part_maps[(i, s)] = torch.from_numpy(np.where(own, gbuffer.part_ids, -1).astype(np.int64))
-    if attributes is not None and part_maps:
-        part_style = attributes.part_style_table(img, proposals.masks, part_maps, min_pixels=20).to(DTYPE).cpu()
+                    part_maps[rank][(i, s)] = torch.from_numpy(np.where(own, gbuffer.part_ids, -1).astype(np.int64))
+                    map_weights[rank, i, s] = w_pose
+    if attributes is not None and any(part_maps):
+        part_style = _mixed_styles(attributes, img, proposals.masks, part_maps, map_weights)
     eye = np.eye(n, dtype=bool)
     tables = {
         "occluded_logodds": torch.tensor(_logodds(occluded, floor), dtype=DTYPE),
