@@ -192,7 +192,8 @@ def eval_evidence_command(
     for index in track(indices, description="evidence", console=console):
         scene = dataset.scene(index)
         observation = Observation(index, dataset.image_path(index), scene)
-        evidence = store.get(observation.image_path, backend.identity(), lambda: backend.evidence(observation))
+        evidence = store.get(observation.image_path, backend.identity(),
+                             lambda seen=observation: backend.evidence(seen))
         counts.add(evidence, scene)
         outcomes.append(score_image(EvidenceAsProposals.of(evidence), scene, scene.image_filename, 0.0))
     figures = {"evidence": counts.figures(), "objects": summarise(outcomes),
