@@ -213,6 +213,31 @@ def test_cli_trains_and_evaluates(tmp_path, torch_one_thread):
     assert "eval_seed5" in json.loads((out / "manifest.json").read_text())[MODEL_NAME]["metrics"]
 
 
+def test_cli_trains_on_several_datasets(tmp_path, torch_one_thread):
+    import typer
+    from typer.testing import CliRunner
+
+    from po3d_ppl.cli.attributes import register
+    from po3d_ppl.questions.dataset import BuildConfig, build_dataset
+
+    first, second = tmp_path / "a", tmp_path / "b"
+    for data, seed in ((first, 5), (second, 6)):
+        build_dataset(data, BuildConfig(scenes=2, seed=seed, min_objects=3, max_objects=3, width=320, height=240))
+    app, train_app, eval_app = typer.Typer(), typer.Typer(), typer.Typer()
+    app.add_typer(train_app, name="train")
+    app.add_typer(eval_app, name="eval")
+    register(app, train_app, eval_app)
+    out = tmp_path / "models"
+    result = CliRunner().invoke(app, ["train", "attributes", "--data", str(first), "--data", str(second),
+                                      "--out", str(out), "--max-steps", "1", "--batch-size", "4",
+                                      "--splits", "train,val,test", "--val-split", "train",
+                                      "--cache", str(tmp_path / "cache")])
+    assert result.exit_code == 0, result.output
+    entry = json.loads((out / "manifest.json").read_text())[MODEL_NAME]
+    assert entry["data_seed"] == [5, 6] and entry["metrics"]["train_objects"] == 12
+    assert f"--data {first} --data {second}" in entry["command"] and len(entry["data_commands"]) == 2
+
+
 def test_the_shipped_weights_load_and_beat_chance(torch_one_thread):
     from po3d_ppl.model_store import read_manifest
     from po3d_ppl.world import generate_scene

@@ -67,7 +67,9 @@ def _print_report(console, report: dict, title: str) -> None:
 
 
 def train_attributes_command(
-    data: Annotated[Path, typer.Option("--data", help="Dataset directory from `po3d dataset build`.")],
+    data: Annotated[list[Path], typer.Option(
+        "--data", help="Dataset directory from `po3d dataset build` (repeatable: --splits of each are trained on; "
+                       "--val-split is taken from the first).")],
     out: Annotated[Path | None, typer.Option("--out", help="Where to write the model (default: models/).")] = None,
     seed: Annotated[int, typer.Option("--seed", help="Seed of initialisation, data order and augmentation.")] = 0,
     epochs: Annotated[int, typer.Option("--epochs", min=1, help="Passes over the training objects.")] = 28,
@@ -76,8 +78,10 @@ def train_attributes_command(
     part_fraction: Annotated[float, typer.Option(
         "--part-fraction", help="Fraction of the training parts seen per epoch (a random subset).")] = 0.25,
     max_steps: Annotated[int | None, typer.Option("--max-steps", min=1, help="Stop after this many steps.")] = None,
-    splits: Annotated[str, typer.Option("--splits", help="Comma-separated splits of --data to train on.")] = "train",
-    val_split: Annotated[str, typer.Option("--val-split", help="Split of --data to fit temperatures on.")] = "val",
+    splits: Annotated[str, typer.Option("--splits", help="Comma-separated splits of each --data to train on.")
+                      ] = "train",
+    val_split: Annotated[str, typer.Option(
+        "--val-split", help="Split of the first --data to fit temperatures on.")] = "val",
     eval_data: Annotated[Path | None, typer.Option(
         "--eval-data", help="Held-out dataset (another seed) to measure on through the public API.")] = None,
     cache: Annotated[Path | None, typer.Option(
@@ -109,8 +113,8 @@ def train_attributes_command(
     config = TrainConfig(seed=seed, epochs=epochs, batch_size=batch_size, lr=lr, part_fraction=part_fraction,
                          max_steps=max_steps)
     split_list = [s.strip() for s in splits.split(",") if s.strip()]
-    train = AttributeData.concat([_load(console, data, s, config.net, cache) for s in split_list])
-    val = _load(console, data, val_split, config.net, cache)
+    train = AttributeData.concat([_load(console, d, s, config.net, cache) for d in data for s in split_list])
+    val = _load(console, data[0], val_split, config.net, cache)
     console.print(f"training on {train.num_objects} objects and {train.num_parts} parts "
                   f"({float(train.part_label('recoloured').float().mean()):.3f} recoloured); "
                   f"calibrating on {val.num_objects} objects, {val.num_parts} parts", highlight=False)
@@ -128,7 +132,8 @@ def train_attributes_command(
                      "train_seconds": round(trained.seconds, 1), "step_seconds": round(trained.step_seconds, 4),
                      "steps": trained.steps, "threads": threads, "device": device,
                      "parameters": net.num_parameters(), "history": trained.history, "calibration": calibration}
-    data_manifests = [_dataset_manifest(data)]
+    data_manifests = [_dataset_manifest(d) for d in data]
+    seeds = [m.get("seed") for m in data_manifests]
     if eval_data is not None:
         held = _dataset_manifest(eval_data)
         with _bar(console, f"measure {eval_data.name}") as bar:
@@ -138,7 +143,8 @@ def train_attributes_command(
         _print_report(console, report, f"attributes on {eval_data} ({report['images']} images, GT masks)")
         data_manifests.append(held)
     directory = Path(out) if out is not None else models_dir()
-    words = ["po3d", "train", "attributes", "--data", str(data), "--seed", str(seed), "--epochs", str(epochs),
+    words = ["po3d", "train", "attributes", *[w for d in data for w in ("--data", str(d))], "--seed", str(seed),
+             "--epochs", str(epochs),
              "--batch-size", str(batch_size), "--lr", str(lr), "--part-fraction", str(part_fraction),
              "--splits", ",".join(split_list), "--val-split", val_split, "--threads", str(threads)]
     if max_steps is not None:
@@ -149,8 +155,8 @@ def train_attributes_command(
         words += ["--out", str(out)]
     path = save_attribute_net(net.to("cpu"), directory, command=shlex.join(words),
                               data_commands=[_build_command(d, m) for d, m in
-                                             zip([data, eval_data], data_manifests)],
-                              data_seed=_dataset_manifest(data).get("seed"), train_config=config.to_dict(),
+                                             zip([*data, eval_data], data_manifests)],
+                              data_seed=seeds[0] if len(seeds) == 1 else seeds, train_config=config.to_dict(),
                               metrics=metrics)
     console.print(f"wrote {path} ({path.stat().st_size / 1e6:.2f} MB) after {trained.seconds:.0f} s of training "
                   f"({trained.step_seconds:.3f} s a step); temperatures {calibration['temperatures']}",

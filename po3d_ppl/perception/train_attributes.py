@@ -24,8 +24,9 @@ same seed, data and thread count give bit-identical weights.
 part head's reference taken from the object head's own (calibrated) output, as at inference.
 
 **Measured** (the shipped weights; ``docs/perception.md`` has the table per category and the command): trained on
-seed 711's train and test splits in 512 s on one thread; on all 120 images of seed 713 with ground-truth masks,
-subtype 0.728, colour 0.962, material 0.925, size 1.000, part style (plain / colour / material) 0.933.
+the train and test splits of seeds 711 and 714 (4,635 objects) in 563 s on one thread, calibrated on 711's val
+split; on all 120 images of seed 713 with ground-truth masks, subtype 0.861, colour 0.980, material 0.962, size
+1.000, part style (plain / colour / material) 0.958.
 """
 
 from __future__ import annotations
