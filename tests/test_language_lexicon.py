@@ -64,5 +64,5 @@ def test_calibration_helpers():
     rng = np.random.default_rng(0)
     texts = {perturb("What color is the big red car?", rng) for _ in range(30)}
     assert "What color is the big red car?" in texts and len(texts) > 5
-    assert expected_calibration_error([1.0, 1.0], [True, True]) == 0.0
+    assert expected_calibration_error([1.0, 1.0], [True, True]) < 1e-5
     assert abs(expected_calibration_error([0.9, 0.9], [True, False]) - 0.4) < 1e-9

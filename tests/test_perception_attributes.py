@@ -24,14 +24,13 @@ from po3d_ppl.perception.attributes import (
     AttributeConfig,
     AttributeNet,
     crop_labels,
-    expected_calibration_error,
-    fit_temperature,
     label_boxes,
     load_attribute_net,
     mask_boxes,
     save_attribute_net,
     square_windows,
 )
+from po3d_ppl.perception.calibration import fit_temperature, top_label_ece
 from po3d_ppl.perception.train_attributes import (
     AttributeData,
     TrainConfig,
@@ -158,8 +157,8 @@ def test_temperature_fit_recovers_a_known_scale_and_ece_is_bounded():
     labels = torch.distributions.Categorical(logits=logits).sample()
     assert fit_temperature(logits * 3, labels) == pytest.approx(3.0, rel=0.1)
     lp = torch.log_softmax(logits, -1)
-    assert expected_calibration_error(lp, labels) < 0.05
-    assert expected_calibration_error(torch.log_softmax(logits * 4, -1), labels) > 0.1
+    assert top_label_ece(lp, labels) < 0.05
+    assert top_label_ece(torch.log_softmax(logits * 4, -1), labels) > 0.1
 
 
 def test_save_load_round_trip_and_checksums(tmp_path, torch_one_thread):

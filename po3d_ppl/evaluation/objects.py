@@ -22,7 +22,6 @@ Ground truth is read here only, for scoring; the parser sees the pixels.
 from __future__ import annotations
 
 import json
-import math
 import statistics
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
@@ -34,6 +33,7 @@ import torch
 from po3d_ppl import ontology
 from po3d_ppl.errors import InputError
 from po3d_ppl.evaluation.calibration import binned_calibration_error
+from po3d_ppl.perception.calibration import fit_temperature
 
 CATEGORIES = tuple(ontology.CATEGORIES)
 
@@ -178,29 +178,6 @@ def load_outcomes(path: Path) -> list[ImageOutcome]:
             raw["objects"] = [ObjectOutcome(**o) for o in raw["objects"]]
             out.append(ImageOutcome(**raw))
     return out
-
-
-def fit_temperature(logits: torch.Tensor, target: torch.Tensor) -> float:
-    """The temperature T minimising the NLL of ``softmax(logits / T)`` (golden-section search on log T in
-    [1e-2, 1e3]; the NLL is unimodal in T for a fixed set of logits)."""
-    if logits.shape[0] == 0:
-        raise InputError("temperature", "no matched objects to fit a temperature on")
-    logits = logits.double()
-
-    def nll(log_t: float) -> float:
-        return float(torch.nn.functional.cross_entropy(logits / math.exp(log_t), target))
-
-    lo, hi = math.log(1e-2), math.log(1e3)
-    ratio = (math.sqrt(5) - 1) / 2
-    a, b = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
-    for _ in range(80):
-        if nll(a) < nll(b):
-            hi, b = b, a
-            a = hi - ratio * (hi - lo)
-        else:
-            lo, a = a, b
-            b = lo + ratio * (hi - lo)
-    return math.exp(0.5 * (lo + hi))
 
 
 def category_logits(outcomes: Sequence[ImageOutcome], min_pixels: int = 200) -> tuple[torch.Tensor, torch.Tensor]:

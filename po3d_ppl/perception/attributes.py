@@ -34,7 +34,6 @@ Code runs on any device (inputs are moved to the module's). Loading goes through
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -47,6 +46,7 @@ from torch import nn
 from po3d_ppl import ontology
 from po3d_ppl.errors import InputError, ModelFileError
 from po3d_ppl.evidence import DTYPE, NUM_STYLES, P, S, style_index
+from po3d_ppl.perception.calibration import fit_temperature
 
 MODEL_NAME = "attributes"
 WEIGHTS = "attributes.safetensors"
@@ -549,43 +549,6 @@ class AttributeNet(nn.Module):
         for i, h in enumerate(PART_HEADS):
             self.part_temperature[i] = fit_temperature(part_logits[h], part_labels[h])
         return self.temperatures()
-
-
-def fit_temperature(logits: torch.Tensor, labels: torch.Tensor, low: float = 0.25, high: float = 20.0,
-                    steps: int = 201) -> float:
-    """The temperature in [low, high] (log-spaced grid, then a finer grid around the best) that minimises the NLL.
-
-    A grid rather than gradient descent: one scalar, deterministic, no learning rate to tune, and NLL(T) is
-    unimodal in log T in practice. The floor ``low`` matters when the validation split has no error at all (size):
-    the NLL then keeps falling as T -> 0, and a near-zero temperature would turn any later mistake into an
-    impossible event for the reasoning engine."""
-    keep = labels >= 0
-    logits, labels = logits[keep].double(), labels[keep]
-    if labels.numel() == 0:
-        return 1.0
-
-    def best(grid: torch.Tensor) -> float:
-        nll = torch.stack([F.cross_entropy(logits / t, labels) for t in grid])
-        return float(grid[int(torch.argmin(nll))])
-
-    coarse = best(torch.logspace(math.log10(low), math.log10(high), steps, dtype=torch.float64))
-    ratio = (high / low) ** (1.0 / (steps - 1))
-    return best(torch.logspace(math.log10(coarse / ratio), math.log10(coarse * ratio), 41, dtype=torch.float64))
-
-
-def expected_calibration_error(logp: torch.Tensor, labels: torch.Tensor, bins: int = 15) -> float:
-    """ECE of the top-1 prediction over ``bins`` equal-width confidence bins (labels -1 are skipped)."""
-    keep = labels >= 0
-    if not keep.any():
-        return float("nan")
-    conf, pred = logp[keep].exp().max(-1)
-    correct = (pred == labels[keep]).double()
-    which = torch.clamp((conf * bins).long(), max=bins - 1)
-    total = torch.zeros(bins, dtype=torch.float64).scatter_add_(0, which.cpu(), torch.ones_like(correct).cpu())
-    acc = torch.zeros(bins, dtype=torch.float64).scatter_add_(0, which.cpu(), correct.cpu())
-    cs = torch.zeros(bins, dtype=torch.float64).scatter_add_(0, which.cpu(), conf.double().cpu())
-    used = total > 0
-    return float(((acc[used] - cs[used]).abs()).sum() / total.sum())
 
 
 # --- files -----------------------------------------------------------------------------------------------------------

@@ -53,6 +53,46 @@ class TableCalibration:
         return {k: float(v) for k, v in asdict(self).items()}
 
 
+def fit_temperature(logits: torch.Tensor, labels: torch.Tensor, low: float = 0.25, high: float = 1000.0,
+                    steps: int = 201) -> float:
+    """The temperature in [low, high] (log-spaced grid, then a finer grid around the best) that minimises the NLL
+    of ``softmax(logits / T)`` (labels -1 are skipped; 1.0 when none is left).
+
+    A grid rather than gradient descent: one scalar, deterministic, no learning rate to tune, and NLL(T) is
+    unimodal in log T in practice. The floor ``low`` matters when the validation split has no error at all: the
+    NLL then keeps falling as T -> 0, and a near-zero temperature would turn any later mistake into an impossible
+    event for the reasoning engine."""
+    import torch.nn.functional as F
+
+    keep = labels >= 0
+    logits, labels = logits[keep].double(), labels[keep]
+    if labels.numel() == 0:
+        return 1.0
+
+    def best(grid: torch.Tensor) -> float:
+        nll = torch.stack([F.cross_entropy(logits / t, labels) for t in grid])
+        return float(grid[int(torch.argmin(nll))])
+
+    coarse = best(torch.logspace(math.log10(low), math.log10(high), steps, dtype=torch.float64))
+    ratio = (high / low) ** (1.0 / (steps - 1))
+    return best(torch.logspace(math.log10(coarse / ratio), math.log10(coarse * ratio), 41, dtype=torch.float64))
+
+
+def top_label_ece(logp: torch.Tensor, labels: torch.Tensor, bins: int = 15) -> float:
+    """ECE of the top-1 prediction of log-probabilities ``logp`` [M, K] (labels -1 skipped): torchmetrics' binned
+    calibration error on (top probability, correct), the probability clamped below 1 (torchmetrics issue #3510,
+    see :mod:`po3d_ppl.evaluation.calibration`)."""
+    from torchmetrics.functional.classification import binary_calibration_error
+
+    keep = labels >= 0
+    if not keep.any():
+        return float("nan")
+    confidence, guess = logp[keep].exp().max(-1)
+    correct = (guess == labels[keep]).long()
+    return float(binary_calibration_error(confidence.double().clamp(0.0, 1.0 - 1e-6).cpu(), correct.cpu(),
+                                          n_bins=bins, norm="l1"))
+
+
 def load_calibration(directory: Path | str | None = None, *, required: bool = False) -> TableCalibration:
     """The shipped calibration (checked against the manifest); the identity when none is shipped, unless
     ``required``."""

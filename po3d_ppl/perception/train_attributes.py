@@ -53,13 +53,13 @@ from po3d_ppl.perception.attributes import (
     AttributeConfig,
     AttributeNet,
     crop_values,
-    expected_calibration_error,
     mask_boxes,
     mirror_object_geometry,
     mirror_part_geometry,
     object_inputs,
     part_inputs,
 )
+from po3d_ppl.perception.calibration import top_label_ece
 
 #: Parts smaller than this (visible pixels) are not trained on.
 MIN_TRAIN_PART_PIXELS = 5
@@ -495,7 +495,7 @@ def calibration_report(net: AttributeNet, objects: Mapping[str, torch.Tensor], o
             y = labels[h].to(lp.device)
             keep = y >= 0
             nll = float(F.nll_loss(lp[keep], y[keep])) if keep.any() else float("nan")
-            out[f"{level}.{h}"] = {"ece": round(expected_calibration_error(lp, y), 4), "nll": round(nll, 4)}
+            out[f"{level}.{h}"] = {"ece": round(top_label_ece(lp, y), 4), "nll": round(nll, 4)}
     return out
 
 
@@ -564,8 +564,8 @@ def evaluate_dataset(net: AttributeNet, data: Path | str, splits: Sequence[str] 
         lp = torch.cat(raws)
         y = torch.cat(collected["label"][name])
         cal = net.calibrate({head: lp.to(net.device)}, level)
-        ece[name] = {"before": round(expected_calibration_error(lp, y), 4),
-                     "after": round(expected_calibration_error(cal[head].cpu(), y), 4)}
+        ece[name] = {"before": round(top_label_ece(lp, y), 4),
+                     "after": round(top_label_ece(cal[head].cpu(), y), 4)}
     return {"images": len(indices), "objects": tally.report(), "ece": ece, "temperatures": net.temperatures(),
             "masks": "ground-truth visible masks (object and part) stand in for the parser's",
             "measured_part_pixels": MEASURE_PART_PIXELS, "seconds": round(time.perf_counter() - start, 1)}

@@ -8,7 +8,6 @@ method, a small L2 penalty) gives the four numbers. The independent test set is 
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -65,15 +64,16 @@ def perturb(question: str, rng: np.random.Generator) -> str:
 
 
 def expected_calibration_error(confidence: Sequence[float], correct: Sequence[bool], bins: int = 15) -> float:
-    """Equal-width-bin ECE (torchmetrics' definition), for reports without torch metrics at hand."""
-    conf, corr = np.asarray(confidence, dtype=float), np.asarray(correct, dtype=float)
-    edges = np.linspace(0, 1, bins + 1)
-    total = 0.0
-    for lo, hi in itertools.pairwise(edges):
-        inside = (conf > lo) & (conf <= hi)
-        if inside.any():
-            total += inside.mean() * abs(conf[inside].mean() - corr[inside].mean())
-    return float(total)
+    """Equal-width-bin ECE: torchmetrics' binned calibration error, confidences clamped below 1 (its issue #3510
+    puts a confidence of exactly 1.0 into a bin of its own; see po3d_ppl.evaluation.calibration)."""
+    import torch
+    from torchmetrics.functional.classification import binary_calibration_error
+
+    if len(confidence) == 0:
+        return float("nan")
+    conf = torch.tensor(list(confidence), dtype=torch.float64).clamp(0.0, 1.0 - 1e-6)
+    target = torch.tensor([int(bool(c)) for c in correct])
+    return float(binary_calibration_error(conf, target, n_bins=bins, norm="l1"))
 
 
 def fit_calibration(parser, examples: Sequence[Example], seed: int = 0, beam: int = 5) -> CalibrationReport:
