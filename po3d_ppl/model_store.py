@@ -104,3 +104,27 @@ def _write_manifest(manifest: Mapping[str, Any], directory: Path) -> None:
         f.write("\n")
     os.chmod(tmp, 0o644)
     os.replace(tmp, directory / MANIFEST)
+
+
+def load_tensors(name: str, directory: Path | None = None, retrain_hint: str = "",
+                 expected_format: str | None = None) -> tuple[Path, dict[str, str], dict[str, Any]]:
+    """(path, metadata, tensors) of model ``name``'s one safetensors file, after the manifest's size and sha256
+    checks; a file that will not open, or whose ``format`` metadata is not ``expected_format``, is a
+    :class:`ModelFileError` naming it and the fix."""
+    from safetensors import safe_open
+
+    fix = retrain_hint or "restore the file from the repository (`git checkout models/`) or retrain the model"
+    files = [p for p in model_files(name, directory, retrain_hint).values() if p.suffix == ".safetensors"]
+    if len(files) != 1:
+        raise ModelFileError(f"model {name!r} should have one safetensors file, the manifest lists {len(files)}; "
+                             f"{fix}")
+    path = files[0]
+    try:
+        with safe_open(str(path), framework="pt") as f:
+            metadata = dict(f.metadata() or {})
+            tensors = {k: f.get_tensor(k) for k in f.keys()}  # noqa: SIM118 (safe_open is no dict)
+    except (OSError, ValueError, RuntimeError) as exc:
+        raise ModelFileError(f"cannot read {path} ({exc}); {fix}") from None
+    if expected_format is not None and metadata.get("format") != expected_format:
+        raise ModelFileError(f"{path}: format {metadata.get('format')!r}, expected {expected_format}; {fix}")
+    return path, metadata, tensors

@@ -576,18 +576,10 @@ def save_attribute_net(net: AttributeNet, directory: Path | str, **manifest: Any
 def load_attribute_net(directory: Path | str | None = None, device: torch.device | str = "cpu") -> AttributeNet:
     """The shipped attribute network (or the one in ``directory``), checked against the manifest (sha256, size)
     and against today's ontology (head orderings); in eval mode on ``device``."""
-    from safetensors import safe_open
+    from po3d_ppl.model_store import load_tensors
 
-    from po3d_ppl.model_store import model_files, models_dir
-
-    directory = Path(directory) if directory is not None else models_dir()
-    path = model_files(MODEL_NAME, directory, RETRAIN)[WEIGHTS]
+    path, meta, tensors = load_tensors(MODEL_NAME, directory, RETRAIN, str(FORMAT))
     try:
-        with safe_open(str(path), framework="pt") as f:
-            meta = f.metadata() or {}
-            tensors = {k: f.get_tensor(k) for k in f.keys()}  # noqa: SIM118 (safe_open is no dict)
-        if meta.get("format") != str(FORMAT):
-            raise ModelFileError(f"{path}: format {meta.get('format')!r}, expected {FORMAT}; {RETRAIN}")
         heads = json.loads(meta["heads"])
         now = {"object": {k: list(v) for k, v in OBJECT_HEADS.items()},
                "part": {k: list(v) for k, v in PART_HEADS.items()}}

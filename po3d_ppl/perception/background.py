@@ -127,17 +127,14 @@ def _ground_median(images: list[np.ndarray], object_masks: list[np.ndarray], row
 
 def load_background(directory: Path | str | None = None) -> BackgroundModel | None:
     """The shipped background model (checked against the manifest), or None when none is listed."""
-    from safetensors import safe_open
-
-    from po3d_ppl.model_store import model_files, models_dir, read_manifest
+    from po3d_ppl.model_store import load_tensors, models_dir, read_manifest
 
     directory = Path(directory) if directory is not None else models_dir()
     if MODEL_NAME not in read_manifest(directory):
         return None
-    path = model_files(MODEL_NAME, directory, RETRAIN)[WEIGHTS]
+    path, _, tensors = load_tensors(MODEL_NAME, directory, RETRAIN, "1")
     try:
-        with safe_open(str(path), framework="pt") as f:
-            return BackgroundModel(f.get_tensor("ground").numpy(), float(f.get_tensor("shadow_ratio")[0]),
-                                   float(f.get_tensor("threshold")[0]))
-    except (OSError, ValueError, KeyError, TypeError, RuntimeError, InputError) as exc:
+        return BackgroundModel(tensors["ground"].numpy(), float(tensors["shadow_ratio"][0]),
+                               float(tensors["threshold"][0]))
+    except (ValueError, KeyError, TypeError, InputError) as exc:
         raise ModelFileError(f"cannot load the background model from {path} ({exc}); {RETRAIN}") from None

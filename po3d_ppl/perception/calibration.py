@@ -96,17 +96,13 @@ def top_label_ece(logp: torch.Tensor, labels: torch.Tensor, bins: int = 15) -> f
 def load_calibration(directory: Path | str | None = None, *, required: bool = False) -> TableCalibration:
     """The shipped calibration (checked against the manifest); the identity when none is shipped, unless
     ``required``."""
-    from safetensors import safe_open
-
-    from po3d_ppl.model_store import model_files, models_dir, read_manifest
+    from po3d_ppl.model_store import load_tensors, models_dir, read_manifest
 
     directory = Path(directory) if directory is not None else models_dir()
     if MODEL_NAME not in read_manifest(directory) and not required:
         return TableCalibration()
-    path = model_files(MODEL_NAME, directory, RETRAIN)[WEIGHTS]
+    path, _, tensors = load_tensors(MODEL_NAME, directory, RETRAIN, "1")
     try:
-        with safe_open(str(path), framework="pt") as f:
-            values = {k: float(f.get_tensor(k)[0]) for k in f.keys()}  # noqa: SIM118 (safe_open is no dict)
-        return TableCalibration(**{f.name: values[f.name] for f in fields(TableCalibration)})
-    except (OSError, ValueError, KeyError, TypeError, RuntimeError, InputError) as exc:
+        return TableCalibration(**{f.name: float(tensors[f.name][0]) for f in fields(TableCalibration)})
+    except (ValueError, KeyError, TypeError, InputError) as exc:
         raise ModelFileError(f"cannot load the table calibration from {path} ({exc}); {RETRAIN}") from None

@@ -136,18 +136,10 @@ def save_feature_model(model: FeatureModel, directory: Path | str, **manifest: A
 def load_feature_model(directory: Path | str | None = None, device: torch.device | str = "cpu") -> FeatureModel:
     """The shipped feature model (or the one in ``directory``), checked against the manifest (sha256) and against
     today's category meshes; the extractor is in eval mode."""
-    from safetensors import safe_open
+    from po3d_ppl.model_store import load_tensors
 
-    from po3d_ppl.model_store import model_files, models_dir
-
-    directory = Path(directory) if directory is not None else models_dir()
-    path = model_files(MODEL_NAME, directory, RETRAIN)[WEIGHTS]
+    path, meta, tensors = load_tensors(MODEL_NAME, directory, RETRAIN, str(FORMAT))
     try:
-        with safe_open(str(path), framework="pt") as f:
-            meta = f.metadata() or {}
-            tensors = {k: f.get_tensor(k) for k in f.keys()}  # noqa: SIM118 (safe_open is no dict)
-        if meta.get("format") != str(FORMAT):
-            raise ModelFileError(f"{path}: format {meta.get('format')!r}, expected {FORMAT}; {RETRAIN}")
         config = FeatureConfig.from_dict(json.loads(meta["config"]))
         saved_meshes = json.loads(meta["meshes"])
         extractor = FeatureExtractor(config)
