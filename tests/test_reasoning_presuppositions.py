@@ -70,3 +70,12 @@ def test_the_cli_prints_both_ways(scene, tmp_path):
     assert given.exit_code == 0 and joint.exit_code == 0, (given.output, joint.output)
     assert "presuppositions; they fail with probability" in given.output
     assert "(invalid)" in joint.output and "presuppositions" not in joint.output
+
+
+def test_a_distribution_renders_for_notebooks_in_words():
+    from po3d_ppl.reasoning.answer import AnswerDistribution
+
+    dist = AnswerDistribution({"school": 0.7, "suv": 0.3}, 0.0, "exact", "Shape", presupposition_failure=0.25)
+    html = dist._repr_html_()
+    assert "school bus" in html and "0.7000" in html and "0.2500" in html
+    assert "<script" not in AnswerDistribution({"<script>": 1.0}, 0.0, "exact", "Shape")._repr_html_()

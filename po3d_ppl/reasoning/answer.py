@@ -137,5 +137,25 @@ class AnswerDistribution:
         return "\n".join(lines)
 
 
+    def _repr_html_(self) -> str:
+        """A notebook view: each answer in words with its probability as a bar, and the presupposition or
+        invalid mass below."""
+        from html import escape
+
+        rows = []
+        for answer, p in list(self.probs.items())[:12]:
+            bar = f'<div style="background:#4a7bd0;height:0.8em;width:{max(p, 0.0) * 12:.2f}em"></div>'
+            rows.append(f"<tr><td>{escape(self.words(answer))}</td><td style='text-align:right'>{p:.4f}</td>"
+                        f"<td>{bar}</td></tr>")
+        if len(self.probs) > 12:
+            rows.append(f"<tr><td colspan=3>... {len(self.probs) - 12} more</td></tr>")
+        if self.presupposition_failure is None:
+            foot = f"invalid (presuppositions fail): {self.invalid:.4f}"
+        else:
+            foot = f"given the presuppositions; they fail with probability {self.presupposition_failure:.4f}"
+        head = escape(f"{self.method}: {self.answer_type} answer, top = {self.words(self.top) if self.top is not None else None}")
+        return (f"<div><b>{head}</b><table>{''.join(rows)}</table><small>{escape(foot)}</small></div>")
+
+
 class PresuppositionWarning(UserWarning):
     """A question's presuppositions probably fail: its answer distribution rests on little mass."""
