@@ -33,38 +33,22 @@
    of the accepted meshes, cut where the cell evidence (bilinear) falls below clutter: the category mesh encloses
    every subtype, so its silhouette overshoots (aeroplane boxes were too large).
 
-**Measured** (``python benchmarks/bench_object_parser.py --images 30 --seed 9001``; held out: the features were
-trained on dataset seed 711; settings were tuned on 10 images of seed 712; 2-core CPU shared with other work, one
-torch thread):
-
-=====================================================  ==================  ==================  ==================
-measure (30 images, 162 objects >= 200 px)              refined             coarse pose only    refined, no jitter
-=====================================================  ==================  ==================  ==================
-detection precision, 2D IoU >= 0.5                      0.922               0.922               0.862
-detection recall, objects >= 200 visible px             0.870               0.870               0.846
-category accuracy (matched)                             0.993               0.993               1.000
-azimuth error <= 30 deg (matched)                       0.709               0.709               0.759
-median ground position error (world units)              0.741               0.761               0.094
-... after removing each image's mean shift              0.184               0.199               0.095
-seconds per image, all stages (median)                  1.59                1.52                1.53
-... features / coarse search / 3D-NMS                   0.04 / 1.23 / 0.07  0.04 / 1.23 / 0.06  0.04 / 1.22 / 0.05
-... local re-search / refinement / record               0.15 / 0.06 / 0.03  0.16 / - / 0.03     0.17 / 0.06 / 0.03
-=====================================================  ==================  ==================  ==================
-
-(``--refine-steps 0`` for the middle column; ``--camera-jitter 0`` for the right one: the same objects, the camera
-at its base pose.) Issue targets: precision and recall >= 0.95, category >= 0.97, azimuth >= 90%, position
-<= 0.25, <= 5 s: met for category and speed only; position too once the camera is known (right column). Most
-azimuth errors are front/back flips (150-180 degrees; aeroplanes, bicycles, buses, seen on seed 712); most misses
-are small aeroplanes (boxes too large: the category mesh overshoots) and objects next to a larger one of another
-category. Refinement moves positions (0.199 -> 0.184 relative) but not the tables, so the detection and azimuth
-figures (which read the boxes and the pose table) barely change.
+**Measured** (``po3d eval objects --data /work/data/perc_test_s713``: dataset seed 713, 120 images, 639 objects
+>= 200 px, held out from the features (seed 711) and from tuning and calibration (seed 712); ``docs/perception.md``
+has the table): precision 0.914, recall 0.847 (2D IoU >= 0.5), category 0.985, azimuth within 30 degrees 0.730
+(car 0.90, motorbike 0.93, bicycle 0.73, bus 0.49, aeroplane 0.50: most errors are front/back flips), median
+position error 0.472 in the camera's ground frame (the scene parser's camera-height estimate brings it to 0.258),
+depth order 0.980, category ECE 0.012; 2.6 s per image (coarse search 1.9 s). Refinement moves positions but not
+the tables. Masks are cut to the background model's foreground when one is shipped (precision 0.900 -> 0.915,
+recall 0.830 -> 0.843 on 30 images of seed 712).
 
 **Known limits.** Camera jitter is not estimated: a camera moved in x-y without turning gives the same image as
 every object moved the other way on the uniform ground, so absolute positions carry the jitter's x-y offset
 (uniform +-0.5 per axis); positions relative to each other do not. Its height is observable only through object
-size against depth, which picked wrong candidates (``camera_steps`` > 1, off by default). Objects are assumed on
-the ground (no elevated aeroplanes); tables are uncalibrated scores (no temperature fitted); the tables come from
-the local search, before refinement moves the pose.
+size against depth, which the category meshes (enclosing every subtype) do not pin (``camera_steps`` > 1, off by
+default); the scene parser estimates it with the subtypes' own meshes. Objects are assumed on the ground (no
+elevated aeroplanes); the tables come from the local search, before refinement moves the pose, calibrated by the
+shipped temperatures (:mod:`po3d_ppl.perception.calibration`).
 """
 
 from __future__ import annotations
