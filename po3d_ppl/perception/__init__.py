@@ -1,19 +1,16 @@
 """Perception: pixels (or, for the simulated sensor, a ground-truth scene) in, :class:`SceneEvidence` out.
 
-A back-end is anything with ``evidence(observation) -> SceneEvidence`` (:class:`EvidenceSource`). Today there is
-one, the simulated sensor (:mod:`po3d_ppl.perception.simulated`); the render-and-compare parser (issue
-"Perception I/II") will be the second, behind the same interface. Perception imports the world and the contract
-(:mod:`po3d_ppl.evidence`), never reasoning.
+A back-end is anything with ``evidence(observation) -> SceneEvidence`` (:class:`EvidenceSource`). Two ship:
 
-Foundations of the render-and-compare parser, in place: image input with the world's camera prior
-(:mod:`~po3d_ppl.perception.image_input`), category-level meshes that enclose each category's subtypes
-(:mod:`~po3d_ppl.perception.category_meshes`), a torch rasteriser (:mod:`~po3d_ppl.perception.rasterizer`), and
-the stride-8 feature extractor with the neural textures and clutter bank trained by the contrastive objective
-(:mod:`~po3d_ppl.perception.features`, :mod:`~po3d_ppl.perception.neural_mesh`,
-:mod:`~po3d_ppl.perception.train_features`; shipped in ``models/perception_features.safetensors``), and a first
-multi-object parser (:func:`~po3d_ppl.perception.object_parser.parse_objects`: coarse search, 3D-NMS, refinement,
-``ObjectProposals``), not yet turned into ``SceneEvidence``.
-They are imported lazily (the simulated sensor needs none of them).
+- the render-and-compare parser, :class:`~po3d_ppl.perception.scene_parser.ImageParser` (``ImageParser.load()``
+  with the shipped models; :func:`~po3d_ppl.perception.scene_parser.parse_scene`): the stride-8 features and
+  neural meshes (:mod:`~po3d_ppl.perception.features`, :mod:`~po3d_ppl.perception.neural_mesh`), the multi-object
+  parser (:func:`~po3d_ppl.perception.object_parser.parse_objects`), the background model, calibrated tables, the
+  attribute network, and parts and occlusion by projecting the world's part-labelled meshes;
+- the simulated sensor (:mod:`po3d_ppl.perception.simulated`), for reasoning on its own.
+
+Perception imports the world and the contract (:mod:`po3d_ppl.evidence`), never reasoning. The image modules are
+imported lazily (the simulated sensor needs none of them). ``docs/perception.md`` has the stages and figures.
 """
 
 from __future__ import annotations
@@ -48,6 +45,10 @@ _LAZY = {
     "NeuralMeshes": "neural_mesh", "FeatureModel": "neural_mesh", "load_feature_model": "neural_mesh",
     "save_feature_model": "neural_mesh",
     "parse_objects": "object_parser", "ObjectProposals": "object_parser", "ParserConfig": "object_parser",
+    "parse_scene": "scene_parser", "ImageParser": "scene_parser", "ParsedScene": "scene_parser",
+    "SceneParserConfig": "scene_parser", "BackgroundModel": "background", "load_background": "background",
+    "TableCalibration": "calibration", "load_calibration": "calibration",
+    "AttributeNet": "attributes", "load_attribute_net": "attributes",
 }
 
 __all__ = ["EvidenceSource", "SceneEvidence", "SimulatedSensor", "simulated_evidence", *_LAZY]
