@@ -1,7 +1,7 @@
 """``po3d eval vqa`` and ``po3d eval calibration``: accuracy against the baselines, difficulty and calibration.
 
-Evidence comes from the simulated sensor until the render-and-compare parser lands (the runner takes any
-:class:`po3d_ppl.evaluation.backends.EvidenceBackend`); it is cached per image under ``--cache``.
+Evidence comes from the simulated sensor (``--perception simulated``) or from perception on the images
+(``--perception image``, the shipped models); either is cached per image under ``--cache``.
 """
 
 from __future__ import annotations
