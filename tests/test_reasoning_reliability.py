@@ -52,6 +52,19 @@ def test_exact_refuses_before_allocating_and_auto_falls_back(noisy):
     assert time.perf_counter() - start < 20
 
 
+def test_a_larger_memory_budget_raises_the_exact_element_cap(noisy, monkeypatch):
+    """The exact engine's static element cap suits the default budget; granting more memory raises it."""
+    from po3d_ppl.reasoning.inference import exact
+    from po3d_ppl.reasoning.inference.exact import ExactTooCostly
+
+    program = "count(same_color(unique(filter_shape[suv](scene()))))"
+    monkeypatch.setattr(exact, "MAX_ELEMENTS", 3)
+    with pytest.raises(ExactTooCostly):
+        noisy.infer(program, "exact")
+    dist = noisy.infer(program, "exact", budget=Budget(max_bytes=1 << 40))
+    assert dist.method == "exact" and dist.invalid + sum(dist.probs.values()) == pytest.approx(1.0)
+
+
 def test_the_default_budget_keeps_the_issue_example_under_two_gigabytes(noisy):
     before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     dist = noisy.infer(HUGE, "auto", num_samples=512)

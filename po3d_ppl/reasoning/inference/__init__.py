@@ -117,8 +117,12 @@ class SceneReasoner:
         return self._distribution(compiled, probs, invalid, method, empty_scene=True)
 
     def _exact(self, compiled, budget: Budget, max_elements: float | None = None, **_):
+        from po3d_ppl.reasoning.inference import exact as exact_module
         from po3d_ppl.reasoning.inference.exact import exact_distribution
 
+        if max_elements is None and budget.max_bytes > Budget().max_bytes:
+            # the static cap suits the default budget; a caller who grants more memory raises it in proportion
+            max_elements = exact_module.MAX_ELEMENTS * budget.max_bytes / Budget().max_bytes
         result = exact_distribution(compiled.typed, self.posteriors, self.evidence, len(self._support(compiled)),
                                     max_elements=max_elements, budget=budget, semantics=self.semantics)
         return self._distribution(compiled, result.probs, result.invalid, "exact", peak_elements=result.peak_elements)
