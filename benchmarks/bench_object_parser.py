@@ -28,7 +28,6 @@ def main() -> None:
     ap.add_argument("--camera-jitter", type=float, default=None, help="rendered scenes' camera jitter")
     ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
                     help="override a ParserConfig field (repeatable), e.g. --set existence_threshold=40")
-    ap.add_argument("--temperature", type=float, default=None, help="category temperature (default: fitted)")
     ap.add_argument("--out", default=None, help="write per-image outcomes (JSON lines) here")
     ap.add_argument("--from-outcomes", default=None, help="summarise saved outcomes instead of parsing")
     args = ap.parse_args()
@@ -74,8 +73,7 @@ def main() -> None:
         print()
     if args.out:
         save_outcomes(outcomes, args.out)
-    temperature = args.temperature if args.temperature is not None else 1.0
-    print(json.dumps({"settings": overrides, **summarise(outcomes, temperature, args.min_pixels)}, indent=1))
+    print(json.dumps({"settings": overrides, **summarise(outcomes, args.min_pixels)}, indent=1))
 
 
 if __name__ == "__main__":

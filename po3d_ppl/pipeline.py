@@ -42,17 +42,20 @@ def answer_question(reasoner: SceneReasoner, question: str, parser=None, *, n_be
     By default the distribution is P(answer | the question's presuppositions hold), with P(they fail) in
     ``presupposition_failure`` and a :class:`~po3d_ppl.reasoning.answer.PresuppositionWarning` when it is high;
     ``presuppose=False`` gives the joint with its explicit invalid outcome."""
-    if parser is None:
-        from po3d_ppl.language import QuestionParser
+    parse = (parser or _shipped_parser()).parse(question, n=n_best)
+    return answer_parse(reasoner, parse, method=method, num_samples=num_samples, seed=seed, budget=budget,
+                        presuppose=presuppose), parse
 
-        parser = QuestionParser.load()
-    parse = parser.parse(question, n=n_best)
+
+def answer_parse(reasoner: SceneReasoner, parse, *, method: str = "auto", num_samples: int = 4096, seed: int = 0,
+                 budget: Budget | None = None, presuppose: bool = True) -> AnswerDistribution:
+    """The answer distribution of an already parsed question (its n-best programs weighted by probability), so a
+    question asked of many images is parsed once."""
     weighted = [(candidate.probability, reasoner.infer(candidate.program, method, num_samples=num_samples, seed=seed,
                                                        budget=budget))
                 for candidate in parse.candidates]
     joint = AnswerDistribution.mixture(weighted, method=method)
-    return (joint.given_presuppositions() if presuppose else joint), parse
-
+    return joint.given_presuppositions() if presuppose else joint
 
 @dataclass
 class Pipeline:
@@ -76,14 +79,15 @@ class Pipeline:
     def answer_many(self, images: Sequence, questions: Sequence[str], *, method: str = "auto", n_best: int = 3,
                     presuppose: bool = True, budget: Budget | None = None, seed: int = 0
                     ) -> list[list[AnswerDistribution]]:
-        """Every question about every image: ``out[i][q]``. Each image is parsed once."""
+        """Every question about every image: ``out[i][q]``. Each image and each question is parsed once."""
         if isinstance(questions, str):
             raise InputError("questions", "expected a list of questions; for one question use answer()")
+        parses = [self.parser.parse(q, n=n_best) for q in questions]
         out = []
         for image in images:
             reasoner = SceneReasoner(self.perception.evidence(image), self.priors)
-            out.append([answer_question(reasoner, q, self.parser, n_best=n_best, method=method, seed=seed,
-                                        budget=budget, presuppose=presuppose)[0] for q in questions])
+            out.append([answer_parse(reasoner, parse, method=method, seed=seed, budget=budget,
+                                     presuppose=presuppose) for parse in parses])
         return out
 
 
@@ -95,6 +99,14 @@ def load_pipeline(models_dir: str | Path | None = None, device: str | None = Non
 
     device = device or "cpu"
     return Pipeline(ImageParser.load(models_dir, device), QuestionParser.load(models_dir, device=device))
+
+
+@lru_cache(maxsize=1)
+def _shipped_parser():
+    """The shipped question parser, loaded once per process."""
+    from po3d_ppl.language import QuestionParser
+
+    return QuestionParser.load()
 
 
 @lru_cache(maxsize=1)

@@ -18,33 +18,27 @@ _LIMIT = typer.Option(None, "--limit", min=1, help="Only the first N images.")
 _THREADS = typer.Option(1, "--threads", min=1, help="torch CPU threads (one is fastest on a busy 2-core machine).")
 
 
-def _parse_all(data: Path, split, limit, calibration, console, label: str, scene: bool = False):
-    import dataclasses
-
+def _parse_all(data: Path, split, limit, calibration, console, label: str):
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
     from po3d_ppl.evaluation.objects import parse_dataset
     from po3d_ppl.perception.object_parser import parse_objects
 
-    if scene:  # the scene parser's geometry: positions and depths under its estimated camera
-        from po3d_ppl.perception.scene_parser import ImageParser
-
-        parser = ImageParser.load()
-
-        def parse(image):
-            parsed = parser.parse(image)
-            ev = parsed.evidence
-            return dataclasses.replace(parsed.proposals, positions=ev.positions, depths=ev.depths,
-                                       camera=ev.camera, pose_loglik=ev.pose_loglik, timings=parsed.timings)
-    else:
-        def parse(image):
-            return parse_objects(image, calibration=calibration)
-
     with Progress(TextColumn(f"[bold]{label}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
                   console=console) as bar:
         task = bar.add_task(label, total=None)
-        return parse_dataset(data, split, limit, parse,
+        return parse_dataset(data, split, limit, lambda image: parse_objects(image, calibration=calibration),
                              progress=lambda done, total: bar.update(task, completed=done, total=total))
+
+
+def _record(name: str, path: Path, directory: Path, data: Path, words: list[str], **metadata) -> None:
+    """The model's manifest entry: its file, the exact command, the dataset's seed and config."""
+    from po3d_ppl.model_store import write_entry
+    from po3d_ppl.questions.dataset import load_dataset
+
+    manifest = load_dataset(data).manifest
+    write_entry(name, [path], directory, command=shlex.join(words), data_seed=manifest.get("seed"),
+                data_config=manifest.get("config"), **metadata)
 
 
 def train_calibration_command(
@@ -58,7 +52,7 @@ def train_calibration_command(
     from rich.console import Console
 
     from po3d_ppl.evaluation.objects import fit_calibration, save_outcomes
-    from po3d_ppl.model_store import models_dir, write_entry
+    from po3d_ppl.model_store import models_dir
     from po3d_ppl.perception.calibration import MODEL_NAME, TableCalibration
 
     torch.set_num_threads(threads)
@@ -69,16 +63,12 @@ def train_calibration_command(
     calibration, report = fit_calibration(results)
     directory = Path(out) if out is not None else models_dir()
     directory.mkdir(parents=True, exist_ok=True)
-    path = calibration.save(directory)
-    manifest = json.loads((Path(data) / "manifest.json").read_text()) if (Path(data) / "manifest.json").exists() \
-        else {}
     words = ["po3d", "train", "calibration", "--data", str(data), "--threads", str(threads)]
     words += ["--split", split] if split else []
     words += ["--limit", str(limit)] if limit else []
     words += ["--out", str(out)] if out is not None else []
-    write_entry(MODEL_NAME, [path], directory, command=shlex.join(words),
-                data_seed=manifest.get("seed"),
-                data_config=manifest.get("config"), values=calibration.to_dict(), metrics=report)
+    _record(MODEL_NAME, calibration.save(directory), directory, data, words, values=calibration.to_dict(),
+            metrics=report)
     console.print_json(json.dumps({"calibration": calibration.to_dict(), **report}))
 
 
@@ -86,13 +76,10 @@ def eval_objects_command(
     data: Path = _DATA, split: str = _SPLIT, limit: int = _LIMIT, threads: int = _THREADS,
     json_out: Path = typer.Option(None, "--json", help="Write the figures here."),
     outcomes: Path = typer.Option(None, "--outcomes", help="Also write the per-image outcomes (JSON lines)."),
-    scene: bool = typer.Option(False, "--scene", help="Score the scene parser's geometry (positions and depths "
-                                                      "under the camera it estimates with the attribute network) "
-                                                      "and its pose tables (with the silhouette term) instead of "
-                                                      "the object parser's."),
 ) -> None:
     """Detection, category, azimuth, position, depth order and category calibration of the object parser (with
-    the shipped calibration), overall, for objects >= 20% occluded and per category."""
+    the shipped calibration), overall, for objects >= 20% occluded and per category. The same figures under
+    the scene parser's camera and tables: `po3d eval evidence`."""
     import torch
     from rich.console import Console
 
@@ -100,7 +87,7 @@ def eval_objects_command(
 
     torch.set_num_threads(threads)
     console = Console()
-    results = _parse_all(data, split, limit, None, console, "parse", scene)
+    results = _parse_all(data, split, limit, None, console, "parse")
     if outcomes is not None:
         save_outcomes(results, outcomes)
     figures = summarise(results)
@@ -122,25 +109,19 @@ def train_background_command(
     from rich.progress import track
 
     from po3d_ppl.errors import InputError
-    from po3d_ppl.model_store import models_dir, write_entry
+    from po3d_ppl.model_store import models_dir
     from po3d_ppl.perception.background import MODEL_NAME, fit_background
+    from po3d_ppl.questions.dataset import load_dataset
     from po3d_ppl.world import rle
-    from po3d_ppl.world.scene_io import load_scenes
 
     console = Console()
-    root = Path(data)
-    if not (root / "scenes.json").exists():
-        raise InputError("--data", f"{root} has no scenes.json; build one with `po3d dataset build --out {root}`")
-    splits = json.loads((root / "splits.json").read_text())
-    if split not in splits:
-        raise InputError("--split", f"{split!r} not in {root / 'splits.json'} (it has {sorted(splits)})")
-    scenes = load_scenes(root / "scenes.json")
+    dataset = load_dataset(data)
     images, covered = [], []
-    for i in track(sorted(splits[split])[:limit], description="reading images", console=console):
-        scene = scenes[i]
-        image = cv2.imread(str(root / "images" / scene.image_filename))
+    for i in track(dataset.split_indices(split)[:limit], description="reading images", console=console):
+        scene = dataset.scene(i)
+        image = cv2.imread(str(dataset.image_path(i)))
         if image is None:
-            raise InputError("--data", f"cannot read {root / 'images' / scene.image_filename}")
+            raise InputError("--data", f"cannot read {dataset.image_path(i)}")
         images.append(np.ascontiguousarray(image[..., ::-1]))
         mask = np.zeros(image.shape[:2], dtype=bool)
         for obj in scene.objects:
@@ -150,12 +131,10 @@ def train_background_command(
     directory = Path(out) if out is not None else models_dir()
     directory.mkdir(parents=True, exist_ok=True)
     path = model.save(directory)
-    manifest = json.loads((root / "manifest.json").read_text()) if (root / "manifest.json").exists() else {}
     words = ["po3d", "train", "background", "--data", str(data), "--split", split, "--limit", str(limit)]
     words += ["--out", str(out)] if out is not None else []
-    write_entry(MODEL_NAME, [path], directory, command=shlex.join(words), data_seed=manifest.get("seed"),
-                data_config=manifest.get("config"),
-                metrics={"images": len(images), "shadow_ratio": model.shadow_ratio, "threshold": model.threshold})
+    _record(MODEL_NAME, path, directory, data, words,
+            metrics={"images": len(images), "shadow_ratio": model.shadow_ratio, "threshold": model.threshold})
     console.print(f"background of {len(images)} images, shadow ratio {model.shadow_ratio:.3f} -> {path}",
                   markup=False, highlight=False)
 
@@ -183,8 +162,7 @@ def eval_evidence_command(
     torch.set_num_threads(threads)
     console = Console()
     dataset = load_dataset(data)
-    indices = sorted(i for part in dataset.splits.values() for i in part) if split == "all" else \
-        sorted(dataset.splits.get(split, []))
+    indices = dataset.split_indices(split)
     indices = indices[:limit] if limit else indices
     backend = ImageBackend()
     store = EvidenceCache(cache if cache is not None else Path(data) / "eval_cache")

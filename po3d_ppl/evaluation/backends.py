@@ -8,6 +8,7 @@ the seed or the model never reads stale evidence. The render-and-compare parser 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
@@ -105,12 +106,12 @@ class ImageBackend:
     def evidence(self, observation: Observation) -> SceneEvidence:
         import dataclasses
 
-        evidence = self._parser().evidence(observation.image_path)
+        evidence = self.parser.evidence(observation.image_path)
         return dataclasses.replace(evidence, masks=None)
 
-    def _parser(self):
+    @cached_property
+    def parser(self):
+        """The shipped models, loaded once per back-end."""
         from po3d_ppl.perception.scene_parser import ImageParser
 
-        if "parser" not in self.__dict__:  # loaded once per back-end (frozen dataclass: no attribute assignment)
-            object.__setattr__(self, "parser", ImageParser.load())
-        return self.__dict__["parser"]
+        return ImageParser.load()

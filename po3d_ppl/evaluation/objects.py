@@ -16,7 +16,8 @@ Ground truth is read here only, for scoring; the parser sees the pixels.
 - **Depth order**: over pairs of matched objects in one image whose true view depths differ by >= 0.05, whether
   the proposals' depths order them the same way.
 - **Calibration**: ECE (15 bins, :func:`~po3d_ppl.evaluation.calibration.binned_calibration_error`) of the top
-  category's softmax probability on matched objects, before and after the fitted temperature.
+  category's softmax probability on matched objects (the tables come calibrated: :func:`fit_calibration` fits the
+  temperatures on a validation seed, ``po3d train calibration``).
 """
 
 from __future__ import annotations
@@ -137,27 +138,19 @@ def score_image(proposals, scene, image_name: str, seconds: float, min_pixels: i
 
 def parse_dataset(data: Path, split: str | None, limit: int | None, parse: Callable, min_pixels: int = 200,
                   progress: Callable[[int, int], None] | None = None) -> list[ImageOutcome]:
-    """Parse every image of ``split`` (``None``: all images) of a dataset directory and score it."""
+    """Parse every image of ``split`` (``None`` or ``"all"``: every image) of a dataset directory and score it."""
     import time
 
     from po3d_ppl.perception.image_input import load_image
-    from po3d_ppl.world.scene_io import load_scenes
+    from po3d_ppl.questions.dataset import load_dataset
 
-    root = Path(data)
-    if not (root / "scenes.json").exists():
-        raise InputError("--data", f"{root} has no scenes.json; build one with `po3d dataset build --out {root}`")
-    scenes = load_scenes(root / "scenes.json")
-    indices = list(range(len(scenes)))
-    if split is not None:
-        split_map = json.loads((root / "splits.json").read_text())
-        if split not in split_map:
-            raise InputError("--split", f"{split!r} not in {root / 'splits.json'} (it has {sorted(split_map)})")
-        indices = sorted(split_map[split])
+    dataset = load_dataset(data)
+    indices = dataset.split_indices(split or "all")
     indices = indices[:limit] if limit is not None else indices
     out = []
     for n, i in enumerate(indices):
-        scene = scenes[i]
-        image = load_image(root / "images" / scene.image_filename)
+        scene = dataset.scene(i)
+        image = load_image(dataset.image_path(i))
         start = time.perf_counter()
         proposals = parse(image)
         out.append(score_image(proposals, scene, scene.image_filename, time.perf_counter() - start, min_pixels))
@@ -200,8 +193,7 @@ def _subset_figures(objs: list[ObjectOutcome]) -> dict[str, float | int | None]:
             "median_position_error": statistics.median(pos) if pos else None}
 
 
-def summarise(outcomes: Sequence[ImageOutcome], temperature: float = 1.0, min_pixels: int = 200,
-              occluded_ratio: float = 0.2) -> dict:
+def summarise(outcomes: Sequence[ImageOutcome], min_pixels: int = 200, occluded_ratio: float = 0.2) -> dict:
     """Every Done-means figure of the object parser over ``outcomes``."""
     objs = [o for img in outcomes for o in img.objects if o.visible_pixels >= min_pixels]
     predictions = sum(img.proposals - img.matched_small for img in outcomes)
@@ -216,7 +208,7 @@ def summarise(outcomes: Sequence[ImageOutcome], temperature: float = 1.0, min_pi
                 pairs += 1
                 correct += (m[a].true_depth < m[b].true_depth) == (m[a].depth < m[b].depth)
     logits, target = category_logits(outcomes, min_pixels)
-    probs = torch.softmax(logits / temperature, -1)
+    probs = torch.softmax(logits, -1)
     conf, guess = probs.max(-1) if len(target) else (torch.zeros(0), torch.zeros(0))
     occluded = [o for o in objs if o.occlusion_ratio >= occluded_ratio]
     figures = {
@@ -224,7 +216,6 @@ def summarise(outcomes: Sequence[ImageOutcome], temperature: float = 1.0, min_pi
         "precision": true_positives / predictions if predictions else None,
         **_subset_figures(objs),
         "depth_order_pairs": pairs, "depth_order_correct": correct / pairs if pairs else None,
-        "category_temperature": temperature,
         "category_ece": binned_calibration_error(conf.tolist(), (guess == target).tolist()) if len(target) else None,
         "seconds_per_image_median": statistics.median(img.seconds for img in outcomes) if outcomes else None,
         f"occluded_{int(occluded_ratio * 100)}pct": _subset_figures(occluded),
@@ -308,13 +299,12 @@ class EvidenceAsProposals:
     timings: dict = field(default_factory=dict)
 
     @classmethod
-    def of(cls, evidence) -> EvidenceAsProposals:
-        from po3d_ppl.perception.scene_parser import SUBTYPE_CATEGORY
+    def of(cls, evidence, timings: dict | None = None) -> EvidenceAsProposals:
+        from po3d_ppl.perception.scene_parser import category_marginal
 
-        category = torch.stack([torch.logsumexp(evidence.subtype_loglik[:, SUBTYPE_CATEGORY == c], -1)
-                                for c in range(len(CATEGORIES))], -1)
-        return cls(evidence.boxes, category, evidence.pose_loglik, evidence.pose_support, evidence.positions,
-                   evidence.depths, evidence.exist_logodds, evidence.camera)
+        return cls(evidence.boxes, category_marginal(evidence.subtype_loglik), evidence.pose_loglik,
+                   evidence.pose_support, evidence.positions, evidence.depths, evidence.exist_logodds,
+                   evidence.camera, dict(timings or {}))
 
     def __len__(self) -> int:
         return int(self.existence_logodds.shape[0])

@@ -219,6 +219,12 @@ def _view_azimuth(camera: Camera, xy: np.ndarray) -> np.ndarray:
     return np.degrees(np.arctan2(ray[..., 1], ray[..., 0]))
 
 
+def yaw_of(camera: Camera, x: float, y: float, pose_degree: float) -> float:
+    """World yaw (degrees) of an object at ground (x, y) seen at ``pose_degree`` (the contract's frame: clockwise
+    from the viewing ray to its front): pose_degree = view azimuth - yaw."""
+    return float(_view_azimuth(camera, np.array([x, y])) - pose_degree) % 360.0
+
+
 def build_templates(camera: Camera, config: ParserConfig) -> Templates:
     """Visible vertices of every category mesh at every (size, reference depth, azimuth), via the z-buffer."""
     from po3d_ppl.perception.category_meshes import category_mesh, pose_vertices_torch
@@ -406,7 +412,7 @@ def _best_hypotheses(scores: torch.Tensor, peaks: list[int], grid: Grid, camera:
         flat = int(scores[p].flatten().argmax())
         c, s, a = np.unravel_index(flat, scores.shape[1:])
         x, y = (float(v) for v in grid.ground[p, :2])
-        rotation = float(_view_azimuth(camera, np.array([x, y])) - config.azimuths[a]) % 360.0
+        rotation = yaw_of(camera, x, y, float(config.azimuths[a]))
         out.append(Hypothesis(p, int(c), int(s), int(a), x, y, rotation, float(grid.depth[p]),
                               float(scores[p].flatten()[flat])))
     return out
@@ -587,7 +593,7 @@ def relocate(hyps: list[Hypothesis], evidence: list[torch.Tensor], feature_size:
         p, c, s_, a = np.unravel_index(flat, local.shape)
         q = int(idx[p])
         x, y = (float(v) for v in grid.ground[q, :2])
-        rotation = float(_view_azimuth(camera, np.array([x, y])) - config.azimuths[a]) % 360.0
+        rotation = yaw_of(camera, x, y, float(config.azimuths[a]))
         new = Hypothesis(q, int(c), int(s_), int(a), x, y, rotation, float(grid.depth[q]), float(local.max()))
         near = idx[torch.linalg.norm(grid.ground[idx, :2] - grid.ground[q, :2], dim=-1) <= config.table_radius]
         out.append(new)

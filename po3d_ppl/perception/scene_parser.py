@@ -34,6 +34,8 @@ from po3d_ppl import ontology
 from po3d_ppl.errors import InputError
 from po3d_ppl.evidence import DTYPE, NUM_STYLES, P, S, SceneEvidence
 from po3d_ppl.perception.image_input import ImageInput, load_image, project_points
+from po3d_ppl.perception.object_parser import parse_objects, yaw_of
+from po3d_ppl.perception.simulated import VISIBLE_PART_PIXELS
 from po3d_ppl.world.scene import Camera
 
 if TYPE_CHECKING:
@@ -98,6 +100,12 @@ class ParsedScene:
     part_ids: np.ndarray | None = None
 
 
+def category_marginal(subtype_loglik: torch.Tensor) -> torch.Tensor:
+    """[N, 5] log-sum-exp of a subtype table [N, 21] over each category's subtypes."""
+    return torch.stack([torch.logsumexp(subtype_loglik[:, SUBTYPE_CATEGORY == c], -1)
+                        for c in range(len(CATEGORIES))], -1)
+
+
 def _logodds(p: np.ndarray, floor: float) -> np.ndarray:
     q = np.clip(p, floor, 1.0 - floor)
     return np.log(q) - np.log1p(-q)
@@ -109,12 +117,6 @@ def _spec(subtype: str, size: str, x: float, y: float, rotation: float):
     # colour and material do not change geometry; the renderer needs some
     return ObjectSpec(subtype, ontology.COLORS[0], ontology.MATERIALS[0], size, float(rotation % 360.0), x, y,
                       parts={})
-
-
-def _yaw(camera: Camera, x: float, y: float, pose_degree: float) -> float:
-    """World yaw of an object at (x, y) seen at ``pose_degree`` (clockwise from the viewing ray to its front)."""
-    ray = np.array([x, y]) - camera.location[:2]
-    return float(math.degrees(math.atan2(ray[1], ray[0])) - pose_degree) % 360.0
 
 
 class _Projector:
@@ -161,8 +163,6 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
                 config: SceneParserConfig | None = None, parser_config=None) -> ParsedScene:
     """Read ``image`` (a path, HWC array or PIL image) into :class:`SceneEvidence` with every table filled from
     pixels. An image without vehicles gives empty evidence (N = 0), which reasoning answers (count 0, ...)."""
-    from po3d_ppl.perception.object_parser import parse_objects
-
     config = config or SceneParserConfig()
     timings: dict[str, float] = {}
     start = time.perf_counter()
@@ -188,9 +188,7 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
         size_ll = size_ll + read["size"].to(DTYPE)
         # post-filtering as evidence (paper §4.2): the attribute reading's belief in the render-and-compare
         # category lowers the existence log-odds when it disagrees; the proposal is kept
-        attr_logp = torch.log_softmax(read["subtype"].to(DTYPE), -1)
-        attr_category = torch.stack([torch.logsumexp(attr_logp[:, SUBTYPE_CATEGORY == c], -1)
-                                     for c in range(len(CATEGORIES))], -1)
+        attr_category = category_marginal(torch.log_softmax(read["subtype"].to(DTYPE), -1))
         exist = exist + torch.gather(attr_category, 1, category_logp.argmax(-1, keepdim=True))[:, 0]
     elif n:
         notes.append("no attribute reader: colour, material and part styles uninformative, subtypes of a "
@@ -280,7 +278,7 @@ def estimate_camera_height(proposals, subtype_ll: torch.Tensor, size_ll: torch.T
         curve = np.zeros(len(offsets))
         for k, (cam, ground) in enumerate(zip(cameras, grounds)):
             x, y = float(ground[i, 0]), float(ground[i, 1])
-            spec = _spec(SUBTYPES[s], size, x, y, _yaw(cam, x, y, azimuth))
+            spec = _spec(SUBTYPES[s], size, x, y, yaw_of(cam, x, y, azimuth))
             curve[k] = _iou(_silhouette(spec, cam, mask.shape) & free, mask)
         total += confidence * curve
     if not total.any():
@@ -307,7 +305,7 @@ def _mixed_styles(attributes: AttributeNet, img: ImageInput, masks: torch.Tensor
     for maps, w in zip(part_maps, weights):
         if not maps:
             continue
-        table = attributes.part_style_table(img, masks, maps, min_pixels=20).to(DTYPE).cpu()
+        table = attributes.part_style_table(img, masks, maps, min_pixels=VISIBLE_PART_PIXELS).to(DTYPE).cpu()
         read = table.abs().sum(-1, keepdim=True) > 0
         table = torch.where(read, table, torch.full_like(table, uniform))
         mixture = torch.logaddexp(mixture, torch.log(w.clamp_min(1e-300))[:, :, None, None] + table)
@@ -332,9 +330,9 @@ def _project(proposals, xy: list[list[float]], subtype_ll: torch.Tensor, size_ll
     projections: list[Projection] = []
     if n == 0:
         tables = {"occluded_logodds": torch.zeros(0, dtype=DTYPE), "occludes_logodds": torch.zeros(0, 0, dtype=DTYPE),
-                      "part_visible_logodds": torch.zeros(0, S, P, dtype=DTYPE), "part_style_loglik": part_style,
-                      "part_occluded_logodds": torch.zeros(0, S, P, dtype=DTYPE),
-                      "part_occludes_logodds": torch.zeros(0, S, P, 0, dtype=DTYPE)}
+                  "part_visible_logodds": torch.zeros(0, S, P, dtype=DTYPE), "part_style_loglik": part_style,
+                  "part_occluded_logodds": torch.zeros(0, S, P, dtype=DTYPE),
+                  "part_occludes_logodds": torch.zeros(0, S, P, 0, dtype=DTYPE)}
         return tables, projections, positions, depths, None
     sizes = [ontology.SIZES[int(i)] for i in size_ll.argmax(-1)]
     weights = _subtype_weights(subtype_ll, config)
@@ -348,7 +346,7 @@ def _project(proposals, xy: list[list[float]], subtype_ll: torch.Tensor, size_ll
 
     def spec(i: int, subtype: int, k: int):
         x, y = xy[i]
-        return _spec(SUBTYPES[subtype], sizes[i], x, y, _yaw(camera, x, y, float(support[i, k])))
+        return _spec(SUBTYPES[subtype], sizes[i], x, y, yaw_of(camera, x, y, float(support[i, k])))
 
     best = [spec(i, weights[i][0][0], pose_hypotheses(i, weights[i][0][0])[0][0]) for i in range(n)]
     projector = _Projector(camera, best)
@@ -370,7 +368,7 @@ def _project(proposals, xy: list[list[float]], subtype_ll: torch.Tensor, size_ll
                     occludes[i, j] += w
                 for p in range(parts):
                     ann = measure.parts[p]
-                    part_visible[i, s, p] += w_pose * (ann.visible_pixels >= 20)
+                    part_visible[i, s, p] += w_pose * (ann.visible_pixels >= VISIBLE_PART_PIXELS)
                     part_occluded[i, s, p] += w_pose * bool(part_occluders[p])
                     for j in part_occluders[p]:
                         part_occludes[i, s, p, j] += w_pose

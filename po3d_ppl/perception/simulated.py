@@ -21,7 +21,11 @@ import torch
 from po3d_ppl import ontology
 from po3d_ppl.errors import InputError
 from po3d_ppl.evidence import CERTAIN, DEFAULT_POSE_BINS, DTYPE, NUM_STYLES, P, S, SceneEvidence, style_index
+from po3d_ppl.world.sampler import SceneConfig
 from po3d_ppl.world.scene import Scene, SceneObject
+
+#: A part counts as visible at this many pixels: the rule the world's recolouring uses.
+VISIBLE_PART_PIXELS = SceneConfig().min_part_pixels
 
 
 @dataclass(frozen=True)
@@ -143,11 +147,12 @@ class _EvidenceBuilder:
 
 
 def part_visible(obj: SceneObject, raw: str) -> bool:
-    """Recoloured parts are visible by construction; otherwise use the annotation (>= 20 visible pixels)."""
+    """Recoloured parts are visible by construction; otherwise use the annotation (the world's
+    ``SceneConfig.min_part_pixels`` visible pixels)."""
     if raw in obj.parts:
         return True
     ann = obj.part_annotations.get(raw)
-    return bool(ann and ann.visible_pixels >= 20)
+    return bool(ann and ann.visible_pixels >= VISIBLE_PART_PIXELS)
 
 
 def _depth(scene: Scene, obj: SceneObject) -> float:

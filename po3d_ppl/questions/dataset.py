@@ -562,12 +562,16 @@ class Dataset:
 
         return scene_from_public(self.public_scenes[index], f"{self.root / 'scenes.json'}: scenes[{index}]")
 
-    def split(self, name: str) -> DatasetSplit:
-        """The images and questions of split ``name``; ``"all"``: every image (a dataset held out as a whole,
-        e.g. a seed built only for testing)."""
+    def split_indices(self, name: str) -> list[int]:
+        """The image indices of split ``name``; ``"all"``: every image (a dataset held out as a whole, e.g. a seed
+        built only for testing)."""
         if name != "all" and name not in self.splits:
             raise InputError("split", f"unknown split {name!r} (known: {', '.join(self.splits)}, or all)")
-        indices = sorted(i for part in self.splits.values() for i in part) if name == "all" else self.splits[name]
+        return sorted(i for part in self.splits.values() for i in part) if name == "all" else list(self.splits[name])
+
+    def split(self, name: str) -> DatasetSplit:
+        """The images and questions of split ``name`` (:meth:`split_indices`)."""
+        indices = self.split_indices(name)
         members = set(indices)
         return DatasetSplit(name, [self.scene(i) for i in indices],
                             {k: [q for q in qs if q["image_index"] in members] for k, qs in self.questions.items()})
