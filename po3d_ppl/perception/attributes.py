@@ -34,7 +34,7 @@ Code runs on any device (inputs are moved to the module's). Loading goes through
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -503,39 +503,47 @@ class AttributeNet(nn.Module):
         ``part_maps[(n, s)]`` is an integer map ``[H, W]`` of the part ids (``ontology.PARTS[SUBTYPES[s]]``
         positions; -1 elsewhere) that proposal n's mesh shows under subtype hypothesis s (visible pixels only).
         Slots with fewer than ``min_pixels`` pixels, and hypotheses not in ``part_maps``, stay 0 (no reading)."""
+        return self.part_style_tables(image, object_masks, [part_maps], min_pixels)[0]
+
+    @torch.no_grad()
+    def part_style_tables(self, image: Any, object_masks: torch.Tensor,
+                          part_map_sets: Sequence[Mapping[tuple[int, int], torch.Tensor]], min_pixels: int = 1
+                          ) -> list[torch.Tensor]:
+        """One :meth:`part_style_table` per set of part maps (e.g. one set per pose hypothesis), in one batch: the
+        objects, whose looks the part head is given, are read once for all the sets."""
         pixels = _as_pixels(image, self.device)
         object_masks = _check_masks(object_masks, pixels, "object_masks")
         n = object_masks.shape[0]
-        table = torch.zeros((n, S, P, NUM_STYLES), dtype=DTYPE, device=self.device)
-        if not part_maps or n == 0:
-            return table
-        keys = sorted(part_maps)
-        for ni, si in keys:
+        tables = torch.zeros((len(part_map_sets), n, S, P, NUM_STYLES), dtype=DTYPE, device=self.device)
+        keys = [(g, ni, si) for g, maps in enumerate(part_map_sets) for ni, si in sorted(maps)]
+        if not keys or n == 0:
+            return list(tables)
+        for _, ni, si in keys:
             if not (0 <= ni < n and 0 <= si < S):
                 raise InputError("part_maps", f"key {(ni, si)}: expected (proposal in 0..{n - 1}, subtype in "
                                               f"0..{S - 1})")
-        planes = torch.stack([torch.as_tensor(part_maps[k], device=self.device).long() for k in keys])
+        planes = torch.stack([torch.as_tensor(part_map_sets[g][(ni, si)], device=self.device).long()
+                              for g, ni, si in keys])
         if tuple(planes.shape[1:]) != tuple(pixels.shape[1:]):
             raise InputError("part_maps", f"expected [H, W] = {list(pixels.shape[1:])} maps, got "
                                           f"{list(planes.shape[1:])}")
         rows, boxes, counts = [], [], []
-        for k, (_, si) in enumerate(keys):
+        for k, (_, _, si) in enumerate(keys):
             b, c = label_boxes(planes[k], len(ontology.PARTS[ontology.SUBTYPES[si]]))
             for p in torch.nonzero(c >= min_pixels).flatten().tolist():
                 rows.append((k, p))
                 boxes.append(b[p])
                 counts.append(c[p])
         if not rows:
-            return table
+            return list(tables)
         plane_index = torch.tensor([r[0] for r in rows], device=self.device)
         values = torch.tensor([r[1] for r in rows], device=self.device)
-        owner = torch.tensor([keys[r[0]][0] for r in rows], device=self.device)
+        group, owner, subtype = (torch.tensor([keys[r[0]][i] for r in rows], device=self.device) for i in range(3))
         objects = self._objects(pixels, object_masks, True)
         logp = self._parts(pixels, planes, plane_index, values, torch.stack(boxes), torch.stack(counts),
                            object_masks, owner, True, objects)
-        subtype = torch.tensor([keys[r[0]][1] for r in rows], device=self.device)
-        table[owner, subtype, values] = logp["style"].to(DTYPE)
-        return table
+        tables[group, owner, subtype, values] = logp["style"].to(DTYPE)
+        return list(tables)
 
     # -- calibration --------------------------------------------------------------------------------------------------
 

@@ -302,10 +302,11 @@ def _mixed_styles(attributes: AttributeNet, img: ImageInput, masks: torch.Tensor
     n = masks.shape[0]
     mixture = torch.full((n, S, P, NUM_STYLES), -math.inf, dtype=DTYPE)
     uniform = -math.log(NUM_STYLES)
-    for maps, w in zip(part_maps, weights):
+    tables = attributes.part_style_tables(img, masks, part_maps, min_pixels=VISIBLE_PART_PIXELS)
+    for maps, w, table in zip(part_maps, weights, tables):
         if not maps:
             continue
-        table = attributes.part_style_table(img, masks, maps, min_pixels=VISIBLE_PART_PIXELS).to(DTYPE).cpu()
+        table = table.to(DTYPE).cpu()
         read = table.abs().sum(-1, keepdim=True) > 0
         table = torch.where(read, table, torch.full_like(table, uniform))
         mixture = torch.logaddexp(mixture, torch.log(w.clamp_min(1e-300))[:, :, None, None] + table)
