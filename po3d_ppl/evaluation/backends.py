@@ -100,7 +100,7 @@ class ImageBackend:
         manifest = read_manifest()
         models = {name: {f: meta["sha256"] for f, meta in entry.get("files", {}).items()}
                   for name, entry in manifest.items()
-                  if name in ("perception_features", "object_calibration", "attributes")}
+                  if name in ("perception_features", "object_calibration", "background", "attributes", "viewpoint")}
         return {"name": self.name, "models": models, "settings": self._settings()}
 
     def evidence(self, observation: Observation) -> SceneEvidence:

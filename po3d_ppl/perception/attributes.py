@@ -231,7 +231,7 @@ def crop_labels(planes: torch.Tensor, plane_index: torch.Tensor, values: torch.T
     return (picked == values.to(planes.dtype)[:, None, None]) & inside
 
 
-def _as_pixels(image: Any, device: torch.device) -> torch.Tensor:
+def as_pixels(image: Any, device: torch.device) -> torch.Tensor:
     """Float RGB ``[3, H, W]`` in [0, 1] from a tensor (float or uint8) or an ``ImageInput``."""
     pixels = getattr(image, "pixels", image)
     if not isinstance(pixels, torch.Tensor) or pixels.dim() != 3 or pixels.shape[0] != 3:
@@ -242,7 +242,7 @@ def _as_pixels(image: Any, device: torch.device) -> torch.Tensor:
     return pixels.to(device=device, dtype=torch.float32)
 
 
-def _check_masks(masks: torch.Tensor, pixels: torch.Tensor, what: str) -> torch.Tensor:
+def check_masks(masks: torch.Tensor, pixels: torch.Tensor, what: str) -> torch.Tensor:
     if not isinstance(masks, torch.Tensor) or masks.dim() != 3 or tuple(masks.shape[1:]) != tuple(pixels.shape[1:]):
         shape = tuple(masks.shape) if isinstance(masks, torch.Tensor) else type(masks).__name__
         raise InputError(what, f"expected bool masks [N, {pixels.shape[1]}, {pixels.shape[2]}], got {shape}")
@@ -442,8 +442,8 @@ class AttributeNet(nn.Module):
     def object_loglik(self, image: Any, masks: torch.Tensor, calibrated: bool = True) -> dict[str, torch.Tensor]:
         """Per-proposal log-probabilities ``{head: [N, K]}`` (``OBJECT_HEADS`` orderings) from the image
         (``[3, H, W]`` float in [0, 1] or uint8, or an ``ImageInput``) and one bool visible mask per proposal."""
-        pixels = _as_pixels(image, self.device)
-        masks = _check_masks(masks, pixels, "masks")
+        pixels = as_pixels(image, self.device)
+        masks = check_masks(masks, pixels, "masks")
         return self._objects(pixels, masks, calibrated)[0]
 
     def _objects(self, pixels: torch.Tensor, masks: torch.Tensor, calibrated: bool
@@ -460,9 +460,9 @@ class AttributeNet(nn.Module):
         "style": [M, 17]}``: part m is the bool mask ``part_masks[m]`` ([M, H, W]) of object ``owner[m]`` (a row
         of ``object_masks`` [N, H, W]). ``color``/``material`` are conditional on recoloured; ``style`` is
         :meth:`style_loglik`, ready for ``SceneEvidence.part_style_loglik``."""
-        pixels = _as_pixels(image, self.device)
-        part_masks = _check_masks(part_masks, pixels, "part_masks")
-        object_masks = _check_masks(object_masks, pixels, "object_masks")
+        pixels = as_pixels(image, self.device)
+        part_masks = check_masks(part_masks, pixels, "part_masks")
+        object_masks = check_masks(object_masks, pixels, "object_masks")
         owner = torch.as_tensor(owner, dtype=torch.long, device=self.device).reshape(-1)
         if owner.shape[0] != part_masks.shape[0] or (owner.numel() and not
                                                      (0 <= int(owner.min()) and int(owner.max()) < len(object_masks))):
@@ -511,8 +511,8 @@ class AttributeNet(nn.Module):
                           ) -> list[torch.Tensor]:
         """One :meth:`part_style_table` per set of part maps (e.g. one set per pose hypothesis), in one batch: the
         objects, whose looks the part head is given, are read once for all the sets."""
-        pixels = _as_pixels(image, self.device)
-        object_masks = _check_masks(object_masks, pixels, "object_masks")
+        pixels = as_pixels(image, self.device)
+        object_masks = check_masks(object_masks, pixels, "object_masks")
         n = object_masks.shape[0]
         tables = torch.zeros((len(part_map_sets), n, S, P, NUM_STYLES), dtype=DTYPE, device=self.device)
         keys = [(g, ni, si) for g, maps in enumerate(part_map_sets) for ni, si in sorted(maps)]

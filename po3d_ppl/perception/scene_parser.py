@@ -40,6 +40,7 @@ from po3d_ppl.world.scene import Camera
 
 if TYPE_CHECKING:
     from po3d_ppl.perception.attributes import AttributeNet
+    from po3d_ppl.perception.viewpoint import ViewpointNet
 
 CATEGORIES = tuple(ontology.CATEGORIES)
 SUBTYPES = tuple(ontology.SUBTYPES)
@@ -63,6 +64,8 @@ class SceneParserConfig:
     estimate_height: bool = True
     height_candidates: int = 21
     min_height_pixels: int = 200
+    #: Exponent of the viewpoint network's azimuth reading in the product with the render-and-compare pose table.
+    viewpoint_weight: float = 1.0
 
     def __post_init__(self) -> None:
         if not (isinstance(self.pose_hypotheses, int) and self.pose_hypotheses >= 1):
@@ -160,9 +163,12 @@ def _subtype_weights(subtype_loglik: torch.Tensor, config: SceneParserConfig) ->
 
 
 def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = None,
-                config: SceneParserConfig | None = None, parser_config=None) -> ParsedScene:
+                viewpoint: ViewpointNet | None = None, config: SceneParserConfig | None = None,
+                parser_config=None) -> ParsedScene:
     """Read ``image`` (a path, HWC array or PIL image) into :class:`SceneEvidence` with every table filled from
-    pixels. An image without vehicles gives empty evidence (N = 0), which reasoning answers (count 0, ...)."""
+    pixels. An image without vehicles gives empty evidence (N = 0), which reasoning answers (count 0, ...).
+    ``viewpoint`` (optional) sharpens the pose table with a whole-object azimuth reading before the parts are
+    projected (:mod:`po3d_ppl.perception.viewpoint`)."""
     config = config or SceneParserConfig()
     timings: dict[str, float] = {}
     start = time.perf_counter()
@@ -196,6 +202,13 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
     timings["attributes"] = time.perf_counter() - t0
 
     pose_ll = proposals.pose_loglik
+    t0 = time.perf_counter()
+    if viewpoint is not None and n:
+        from po3d_ppl.perception.viewpoint import combine_pose
+
+        pose_ll = combine_pose(pose_ll, proposals.pose_support, viewpoint.azimuth_loglik(img, proposals.masks),
+                               config.viewpoint_weight)
+    timings["viewpoint"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     xy = proposals.positions[:, :2].tolist()
     if config.estimate_height and attributes is not None and n:
@@ -403,25 +416,33 @@ class ImageParser:
     object_model: object = None
     attributes: AttributeNet | None = None
     config: SceneParserConfig = field(default_factory=SceneParserConfig)
+    viewpoint: ViewpointNet | None = None
     name = "render-and-compare"
 
     @classmethod
     def load(cls, models_dir=None, device=None, config: SceneParserConfig | None = None) -> ImageParser:
-        """The shipped models (or those of ``models_dir``), each checked against its sha256; the attribute
-        network only if one is listed in the manifest (otherwise its tables stay uninformative)."""
+        """The shipped models (or those of ``models_dir``), each checked against its sha256; the attribute and
+        viewpoint networks only if listed in the manifest (otherwise their tables stay uninformative, or the pose
+        table is render-and-compare's alone)."""
         from po3d_ppl.model_store import read_manifest
         from po3d_ppl.perception.neural_mesh import load_feature_model
 
         device = device or "cpu"
-        attributes = None
-        if "attributes" in read_manifest(models_dir):
+        manifest = read_manifest(models_dir)
+        attributes = viewpoint = None
+        if "attributes" in manifest:
             from po3d_ppl.perception.attributes import load_attribute_net
 
             attributes = load_attribute_net(models_dir, device)
-        return cls(load_feature_model(models_dir, device), attributes, config or SceneParserConfig())
+        if "viewpoint" in manifest:
+            from po3d_ppl.perception.viewpoint import load_viewpoint_net
+
+            viewpoint = load_viewpoint_net(models_dir, device)
+        return cls(load_feature_model(models_dir, device), attributes, config or SceneParserConfig(), viewpoint)
 
     def parse(self, image) -> ParsedScene:
-        return parse_scene(image, object_model=self.object_model, attributes=self.attributes, config=self.config)
+        return parse_scene(image, object_model=self.object_model, attributes=self.attributes,
+                           viewpoint=self.viewpoint, config=self.config)
 
     def evidence(self, image) -> SceneEvidence:
         return self.parse(image).evidence

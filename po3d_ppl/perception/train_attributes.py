@@ -300,7 +300,7 @@ class TrainConfig:
         return d
 
 
-def _augment(crops: torch.Tensor, geometry: torch.Tensor, mirror: Callable[[torch.Tensor], torch.Tensor],
+def augment_crops(crops: torch.Tensor, geometry: torch.Tensor, mirror: Callable[[torch.Tensor], torch.Tensor],
              config: TrainConfig, g: torch.Generator) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """Random flips (geometry mirrored by ``mirror``) and one-pixel mask dilation/erosion, per sample; and which
     samples were flipped."""
@@ -321,7 +321,7 @@ def _augment(crops: torch.Tensor, geometry: torch.Tensor, mirror: Callable[[torc
     return crops, geometry, flip
 
 
-def _jitter(crops: torch.Tensor, dense: torch.Tensor, config: TrainConfig, g: torch.Generator
+def jitter_windows(crops: torch.Tensor, dense: torch.Tensor, config: TrainConfig, g: torch.Generator
             ) -> tuple[torch.Tensor, torch.Tensor]:
     """Random scale and shift of object crops (the parser's boxes will not sit where the ground truth's do), the
     dense target moved with them (nearest; cells pushed out of the crop become "not this object")."""
@@ -352,18 +352,18 @@ def ground_truth_reference(data: AttributeData, owner: torch.Tensor, smoothing: 
 
 def _losses(net: AttributeNet, data: AttributeData, objects: torch.Tensor, parts: torch.Tensor, config: TrainConfig,
             g: torch.Generator, device: torch.device) -> dict[str, torch.Tensor]:
-    crops, geom, flip = _augment(data.object_crops[objects].float() / 255, data.object_geometry[objects],
+    crops, geom, flip = augment_crops(data.object_crops[objects].float() / 255, data.object_geometry[objects],
                                  mirror_object_geometry, config, g)
     dense = data.object_parts[objects].long()
     dense = torch.where(flip[:, None, None], DENSE_MIRROR[dense.flip(-1)], dense)
-    crops, dense = _jitter(crops, dense, config, g)
+    crops, dense = jitter_windows(crops, dense, config, g)
     out = net.object_logits(crops.to(device), geom.to(device))
     labels = data.object_labels[objects].to(device)
     losses = {f"object.{h}": F.cross_entropy(out[h], labels[:, i]) for i, h in enumerate(OBJECT_HEADS)}
     if config.dense_weight > 0 and "dense" in out:
         losses["object.dense"] = config.dense_weight * F.cross_entropy(out["dense"], dense.to(device))
     if parts.numel():
-        crops, geom, _ = _augment(data.part_crops[parts].float() / 255, data.part_geometry[parts],
+        crops, geom, _ = augment_crops(data.part_crops[parts].float() / 255, data.part_geometry[parts],
                                   mirror_part_geometry, config, g)
         ref = ground_truth_reference(data, data.part_owner[parts], config.reference_smoothing)
         out = net.part_logits(crops.to(device), geom.to(device), ref.to(device))
