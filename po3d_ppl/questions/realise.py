@@ -40,6 +40,15 @@ class _Obj:
     anchor_ref: str | None = None  # how the first post says the anchor
     union: tuple[_Obj, _Obj] | None = None
     hoist: bool = False
+    #: How the set was reached from its anchor: "relate", "occluded_by" (relate_occluding: the anchor occludes
+    #: them), "occluding" (relate_occluded: they occlude the anchor), "occluding_part" (relate_part_occluded),
+    #: "pose"; None for plain filters.
+    via: str | None = None
+    #: Object filters applied after the relation (what the relation's result was narrowed to).
+    narrowed: bool = False
+    #: For the owner of a described part ("the thing that has a red wheel"): the part said alone ("the red
+    #: wheel"), for "the door that belongs to the same object as the red wheel".
+    owned_ref: str | None = None
 
 
 @dataclass
@@ -93,10 +102,12 @@ class Realiser:
         if f in _OBJECT_ATTR:
             d = self.obj(self._in(node))
             d.attrs[_OBJECT_ATTR[f]] = node.value
+            d.narrowed = True
             return d
         if f == "filter_shape":
             d = self.obj(self._in(node))
             d.shape = node.value
+            d.narrowed = True
             return d
         if f == "filter_pose":
             d = self.obj(self._in(node))
@@ -113,7 +124,7 @@ class Realiser:
             anchor = self.obj(self._in(node))
             words = self.pick(lx.RELATION_FORMS[node.value])
             ref = self.np(anchor, "def")
-            return _Obj(posts=[self._bare_or_clause(words, ref)], anchor=anchor, anchor_ref=ref)
+            return _Obj(posts=[self._bare_or_clause(words, ref)], anchor=anchor, anchor_ref=ref, via="relate")
         if f.startswith("same_") and f != "same_pose":
             attr = f.removeprefix("same_")
             anchor = self.obj(self._in(node))
@@ -132,19 +143,19 @@ class Realiser:
             anchor = self.obj(self._in(node))
             ref = self.np(anchor, "def")
             return _Obj(posts=[self.pick(_POSE_RELATIONS[f])(ref)], other=f == "same_pose" and self.chance(0.3),
-                        anchor=anchor, anchor_ref=ref)
+                        anchor=anchor, anchor_ref=ref, via="pose")
         if f == "relate_occluding":  # objects the anchor occludes
             anchor = self.obj(self._in(node))
             ref = self.np(anchor, "def")
-            return _Obj(posts=[self.pick(_OCCLUDED_BY)(ref)], anchor=anchor, anchor_ref=ref)
+            return _Obj(posts=[self.pick(_OCCLUDED_BY)(ref)], anchor=anchor, anchor_ref=ref, via="occluded_by")
         if f == "relate_occluded":  # objects that occlude the anchor
             anchor = self.obj(self._in(node))
             ref = self.np(anchor, "def")
-            return _Obj(posts=[self.pick(_OCCLUDING)(ref)], anchor=anchor, anchor_ref=ref)
+            return _Obj(posts=[self.pick(_OCCLUDING)(ref)], anchor=anchor, anchor_ref=ref, via="occluding")
         if f == "relate_part_occluded":
             part = self.part(self._in(node))
             ref = self.part_np(part, "def")
-            return _Obj(posts=[self.pick(_OCCLUDING)(ref)])
+            return _Obj(posts=[self.pick(_OCCLUDING)(ref)], anchor_ref=ref, via="occluding_part")
         if f == "part2object":
             return self._owner_of(self._in(node))
         if f == "union":
@@ -169,9 +180,18 @@ class Realiser:
         return (f"that is {words} {ref}", f"that are {words} {ref}")
 
     def _pose_clause(self, pose: str) -> tuple[str, str]:
-        words = self.pick(lx.POSE_FORMS[pose])
+        words = self.pick(lx.POSE_FORMS[pose] + (_POSE_EXTRA[pose] if self.chance(0.25) else ()))
         bare = pose.removesuffix("_pose")
         return self.pick((
+            (f"that is facing {words}", f"that are facing {words}"),
+            (f"oriented {words}",) * 2,
+            (f"that is pointing {words}", f"that are pointing {words}"),
+            (f"that is turned {words}", f"that are turned {words}"),
+            (f"heading {words}",) * 2,
+            (f"whose direction is {bare}",) * 2,
+            (f"in the {bare} pose",) * 2,
+            (f"that points {words}", f"that point {words}"),
+        ) if self.chance(0.3) else (
             (f"that faces {words}", f"that face {words}"),
             (f"facing {words}",) * 2,
             (f"which faces {words}", f"which face {words}"),
@@ -189,11 +209,24 @@ class Realiser:
         owner = part.owner if part.owner is not None else _Obj()
         part.owner = None
         d = _Obj(attrs=dict(owner.attrs), shape=owner.shape, posts=list(owner.posts), occluded=owner.occluded)
+        if not (owner.attrs or owner.shape or owner.posts or owner.occluded):
+            d.owned_ref = self.part_np(part, "def")
         adjectives = self._part_adjectives(part)
         noun = self._part_noun(part, d.shape)
         if part.posts and not adjectives:  # "whose wheel is occluded by the bus"
-            clause = part.posts[0][0].removeprefix("that ")
-            d.posts.append((f"whose {noun} {clause}", f"whose {noun} {clause}"))
+            clause = part.posts[0][0].removeprefix("that ").removeprefix("which ")
+            if clause.split()[0] in _PASSIVE_WORDS:
+                clause = "is " + clause
+            style = self.rng.random()
+            if style < 0.6 or not clause.startswith("is "):
+                d.posts.append((f"whose {noun} {clause}", f"whose {noun} {clause}"))
+            elif style < 0.8:
+                d.posts.append((f"with its {noun} {clause.removeprefix('is ')}",
+                                f"with their {noun} {clause.removeprefix('is ')}"))
+            else:
+                verb = self.pick((("that has", "that have"), ("which has", "which have")))
+                d.posts.append((f"{verb[0]} a {noun} {clause.removeprefix('is ')}",
+                                f"{verb[1]} a {noun} {clause.removeprefix('is ')}"))
             return d
         if len(part.attrs) + part.occluded == 1 and part.name and self.chance(0.5):
             value = "occluded" if part.occluded else self._attr_words(next(iter(part.attrs.items())))
@@ -301,6 +334,16 @@ class Realiser:
         if p.posts:
             head += " " + p.posts[0][0]
         det = "the " if kind == "def" else "a "
+        o = p.owner
+        if (o is not None and o.owned_ref and len(o.posts) == 1 and not (o.attrs or o.shape or o.occluded)
+                and self.chance(0.45)):
+            thing = self.pick(("object", "object", "vehicle", "thing", "item"))
+            return self.pick((f"{det}{head} that belongs to the same {thing} as {o.owned_ref}",
+                              f"{det}{head} of the same {thing} as {o.owned_ref}",
+                              f"{det}{head} on the same {thing} as {o.owned_ref}",
+                              f"{det}{head} belonging to the same {thing} as {o.owned_ref}",
+                              f"{det}{head} that is on the same {thing} as {o.owned_ref}",
+                              f"{det}{head} that is part of the same {thing} as {o.owned_ref}"))
         if p.owner is None or (not p.owner.attrs and p.owner.shape is None and not p.owner.posts
                                and not p.owner.occluded):
             if p.owner is not None and self.chance(0.3):
@@ -319,7 +362,8 @@ class Realiser:
     # ----- questions -------------------------------------------------------------------------------------------
     def _maybe_hoist(self, d: _Obj) -> str:
         """CLEVR's "There is a red car; ..." form: describe the relation's anchor first, then say "it"."""
-        if d.anchor_ref and d.posts and self.chance(0.25) and d.posts[0][0].endswith(d.anchor_ref):
+        if (d.anchor is not None and d.anchor_ref and d.posts and self.chance(0.25)
+                and d.posts[0][0].endswith(d.anchor_ref)):
             intro = self.np(d.anchor, "indef")
             d.posts[0] = tuple(p[: len(p) - len(d.anchor_ref)] + "it" for p in d.posts[0])
             return self.pick(("There is ", "There is ", "Look at ")) + intro + "; "
@@ -353,28 +397,68 @@ class Realiser:
             x = self.part_np(part, "def")
             return self._attribute_question(attr, x)
         d = self.obj(target)
+        attr = f.removeprefix("query_")
+        if attr == "shape" and d.via in ("occluding", "occluded_by", "occluding_part") and not d.narrowed \
+                and not d.other and self.chance(0.6):
+            return self._what_occludes(d)
+        if self.chance(0.14):  # CLEVR's "There is a small red car; what is its size?"
+            intro = self.pick(("There is ", "There is ", "Look at ", "Consider ")) + self.np(d, "indef") + "; "
+            return intro + self.pick(_IT_QUESTIONS[attr])
         intro = self._maybe_hoist(d)
         x = self.np(d, "def")
-        attr = f.removeprefix("query_")
         if attr == "pose":
             return intro + self.pick(_POSE_QUESTIONS)(x)
-        return intro + self._attribute_question(attr, x)
+        question = self._attribute_question(attr, x)
+        if attr == "shape" and d.shape is None and not intro and self.chance(0.15):
+            question = self.pick((f"What is {x}?", f"What is {x}?", f"What vehicle is {x}?", f"What's {x}?"))
+        return intro + question
+
+    def _what_occludes(self, d: _Obj) -> str:
+        """Shape queries on an occlusion relation: "What is occluding the bus?", "What does the car occlude?"."""
+        ref = d.anchor_ref
+        thing = self.pick(("thing", "object", "vehicle", "item"))
+        if d.via in ("occluding", "occluding_part"):  # what occludes ref
+            return self.pick((f"What is occluding {ref}?", f"What occludes {ref}?", f"What is {ref} occluded by?",
+                              f"Which {thing} occludes {ref}?", f"What is blocking {ref}?", f"What blocks {ref}?",
+                              f"What hides {ref}?", f"What is {ref} hidden by?", f"Which {thing} is occluding {ref}?",
+                              f"What kind of {thing} occludes {ref}?", f"What type of {thing} is occluding {ref}?",
+                              f"What shape is the {thing} that occludes {ref}?", f"What is {ref} blocked by?"))
+        return self.pick((f"What is occluded by {ref}?", f"What does {ref} occlude?", f"What is {ref} occluding?",
+                          f"Which {thing} is occluded by {ref}?", f"What is hidden by {ref}?",
+                          f"What does {ref} block?", f"What kind of {thing} does {ref} occlude?",
+                          f"Which {thing} is blocked by {ref}?", f"What is {ref} hiding?"))
 
     def _attribute_question(self, attr: str, x: str) -> str:
         name = self.pick(_ATTR_NAME[attr])
+        common = [f"What is the {name} of {x}?", f"What {name} is {x}?", f"{x} is what {name}?",
+                  f"{x} has what {name}?", f"What {name} does {x} have?", f"Tell me the {name} of {x}.",
+                  f"What's the {name} of {x}?", f"Can you tell me the {name} of {x}?", f"Which {name} is {x}?",
+                  f"What is {x}'s {name}?" if len(x.split()) <= 4 else f"What is the {name} of {x}?",
+                  f"Identify the {name} of {x}."]
         frames = {
-            "color": [f"What {name} is {x}?", f"What is the {name} of {x}?", f"Which {name} is {x}?",
-                      f"What {name} does {x} have?", f"{x} is what {name}?", f"Tell me the {name} of {x}.",
-                      f"What is the {name} of {x}?", f"{x} has what {name}?"],
+            "color": [f"What color is {x} painted?" if len(x.split()) <= 4 else f"What color is {x}?", f"Of what {name} is {x}?", f"What is the {name} of {x}?",
+                      f"What {name} is {x}?", f"Which {name} does {x} have?"],
             "size": [f"What size is {x}?", f"How big is {x}?", f"What is the size of {x}?", f"{x} is what size?",
-                     f"Is {x} large or small?", f"What size does {x} have?", f"Tell me the size of {x}."],
+                     f"Is {x} large or small?", f"What size does {x} have?", f"Tell me the size of {x}.",
+                     f"How large is {x}?", f"Is {x} big or small?", f"Is {x} small or large?",
+                     f"{x} is how big?", f"Is {x} little or big?"],
             "material": [f"What material is {x}?", f"What is {x} made of?", f"What is the material of {x}?",
-                         f"{x} is made of what material?", f"Is {x} metal or rubber?",
-                         f"What is {x} made from?", f"Which material is {x}?"],
+                         f"{x} is made of what material?", f"Is {x} metal or rubber?", f"Is {x} rubber or metal?",
+                         f"What is {x} made from?", f"Which material is {x}?", f"What material is {x} made of?",
+                         f"What is {x} made out of?", f"{x} is made of what?", f"What material was used for {x}?",
+                         f"Is {x} shiny or matte?", f"Is {x} made of metal or rubber?",
+                         f"What kind of material is {x}?", f"Of what material is {x}?"],
             "shape": [f"What shape is {x}?", f"What type of vehicle is {x}?", f"What kind of object is {x}?",
                       f"What is the shape of {x}?", f"What sort of vehicle is {x}?", f"{x} is what type of vehicle?",
-                      f"What kind of vehicle is {x}?", f"What type of object is {x}?"],
+                      f"What kind of vehicle is {x}?", f"What type of object is {x}?", f"{x} is what shape?",
+                      f"{x} has what shape?", f"What shape does {x} have?", f"What kind of thing is {x}?",
+                      f"Which type of vehicle is {x}?", f"What category of vehicle is {x}?",
+                      f"Which vehicle is {x}?", f"What is the type of {x}?", f"What sort of object is {x}?"],
         }[attr]
+        if attr in ("color", "size", "material") and self.chance(0.35):
+            return self.pick(common)
+        if attr == "shape" and self.chance(0.2):
+            return self.pick(common)
         return self.pick(frames)
 
     def _part_name_question(self, part: _Part) -> str:
@@ -382,13 +466,28 @@ class Realiser:
         if (owner is not None and part.name is None and (part.attrs or part.occluded) and not part.posts
                 and (owner.attrs or owner.shape or owner.posts) and self.chance(0.5)):
             o = self.np(owner, "def")
-            state = _and([*(self._adjectives(part.attrs))] + (["occluded"] if part.occluded else []))
-            return self.pick((f"Which part of {o} is {state}?", f"What part of {o} is {state}?",
-                              f"Which of the parts of {o} is {state}?"))
+            occ = self.pick(("occluded", "occluded", "hidden", "blocked", "partially occluded", "not visible",
+                             "blocked from view", "obscured", "covered"))
+            state = _and([*(self._adjectives(part.attrs))] + ([occ] if part.occluded else []))
+            adjs = " ".join(self._part_adjectives(part))
+            frames = [f"Which part of {o} is {state}?", f"What part of {o} is {state}?",
+                      f"Which of the parts of {o} is {state}?", f"Which part of {o} is {state}?",
+                      f"What is the {adjs} part of {o}?", f"Which {adjs} part does {o} have?",
+                      f"Name the part of {o} that is {state}.", f"What is the name of the part of {o} that is {state}?",
+                      f"Which part on {o} is {state}?", f"What part of {o} is {state}?",
+                      f"The {adjs} part of {o} is which part?", f"Which of {o}'s parts is {state}?"
+                      if len(o.split()) <= 4 else f"Which of the parts of {o} is {state}?",
+                      f"What is the {adjs} part of {o} called?", f"Tell me which part of {o} is {state}."]
+            if "material" in part.attrs and not part.occluded and len(part.attrs) == 1:
+                frames.append(f"Which part of {o} is made of {part.attrs['material']}?")
+            if "color" in part.attrs and not part.occluded and len(part.attrs) == 1:
+                frames.append(f"Which part of {o} is colored {self._attr_words(('color', part.attrs['color']))}?")
+            return self.pick(frames)
         x = self.part_np(part, "def")
         return self.pick((f"What is the name of {x}?", f"What is {x} called?", f"What do you call {x}?",
                           f"What is the name of {x}?", f"Name {x}.", f"Which part is {x}?",
-                          f"What part is {x}?"))
+                          f"What part is {x}?", f"What is {x}?", f"Identify {x}.", f"Which part is {x}?",
+                          f"What kind of part is {x}?", f"What is the part name of {x}?"))
 
     def _count_exist(self, node: Node) -> str:
         target = self._in(node)
@@ -426,6 +525,10 @@ class Realiser:
             word = self.pick(("occluded", "hidden", "partially hidden", "partly occluded", "blocked from view",
                               "occluded by another object", "covered by something"))
             return self.pick((f"Is {x} {word}?", f"Is {x} {word}?", f"Is {x} {word} in the picture?"))
+        if d.via is not None and d.posts and d.union is None and self.chance(0.35):
+            direct = self._relation_yes_no(d) if not count else self._relation_count(d)
+            if direct is not None:
+                return direct
         intro = self._maybe_hoist(d)
         predicative = self._predicative(d)
         if count:
@@ -437,7 +540,12 @@ class Realiser:
                                       f"How many {x} are in the scene?", f"Count the {x}.",
                                       f"How many {x} are there in the image?", f"What is the number of {x}?",
                                       f"How many {x} can you see?", f"How many {x} do you see?",
-                                      f"How many {x} are in the picture?", f"How many {x}?"))
+                                      f"How many {x} are in the picture?", f"How many {x}?",
+                                      f"How many {x} are visible?", f"Count the number of {x}.",
+                                      f"How many {x} can be seen?", f"Tell me how many {x} there are.",
+                                      f"What's the number of {x}?", f"How many {x} exist?",
+                                      f"How many {x} are present?", f"What is the total number of {x}?",
+                                      f"How many {x} are shown?", f"Give the number of {x}."))
         if predicative is not None and predicative[1].startswith("are ") and self.chance(0.5):
             subject, pred = predicative
             single = self.np(_strip_posts(d), "indef")
@@ -454,7 +562,53 @@ class Realiser:
         return intro + self.pick((f"Are there any {x}?", f"Is there {single}?", f"Do you see any {x}?",
                                   f"Does the scene contain {single}?", f"Are any {x} visible?",
                                   f"Is there any {self.np(d, 'indef').removeprefix('a ')}?",
-                                  f"Are there {x}?", f"Is there {single} in the scene?"))
+                                  f"Are there {x}?", f"Is there {single} in the scene?",
+                                  f"Does {single} exist?", f"Can you see {single}?", f"Is {single} present?",
+                                  f"Is there at least one {self.np(d, 'indef').removeprefix('a ')}?",
+                                  f"Are there any {x} in the image?", f"Do any {x} exist?",
+                                  f"Is there {single} in the image?", f"Are there any {x} in the picture?",
+                                  f"Is {single} visible?", f"Is there {single} anywhere?"))
+
+    def _relation_yes_no(self, d: _Obj) -> str | None:
+        """Exist over a relation, said of one object: "Is the car behind the bus?", "Does the truck occlude the
+        bus?", "Is the bus occluded by a red car?", "Is the front wheel of the car occluded by the bus?"."""
+        rest = _strip_posts(d)
+        sing, plur = d.posts[-1]
+        ref = d.anchor_ref
+        if d.via in ("occluding", "occluding_part") and ref and self.chance(0.6):
+            some = self.np(rest, "indef") if self.chance(0.6) else "any " + self.np(rest, "plural")
+            word = self.pick(("occluded", "occluded", "hidden", "blocked", "partially occluded", "obscured",
+                              "covered", "partly hidden"))
+            return self.pick((f"Is {ref} {word} by {some}?", f"Is {ref} {word} by {some}?",
+                              f"Is {ref} being {word} by {some}?"))
+        if d.via == "occluded_by" and ref and self.chance(0.6):
+            some = self.np(rest, "indef") if self.chance(0.6) else "any " + self.np(rest, "plural")
+            return self.pick((f"Does {ref} occlude {some}?", f"Is {ref} occluding {some}?", f"Does {ref} block {some}?",
+                              f"Does {ref} hide {some}?", f"Does {ref} partially occlude {some}?"))
+        subject = self.np(rest, "def" if self.chance(0.85) else "indef")
+        for prefix in ("that is ", "which is "):
+            if sing.startswith(prefix):
+                return f"Is {subject} {sing.removeprefix(prefix)}?"
+        words = plur.split()
+        if words[0] in ("that", "which") and len(words) > 1 and words[1] in _VERBS:
+            return f"Does {subject} {' '.join(words[1:])}?"
+        if words[0] in _BARE_STARTS or sing.startswith(tuple(f for forms in lx.RELATION_FORMS.values()
+                                                           for f in forms)):
+            return f"Is {subject} {sing}?"
+        return None
+
+    def _relation_count(self, d: _Obj) -> str | None:
+        rest = self.np(_strip_posts(d), "plural")
+        ref = d.anchor_ref
+        if d.via in ("occluding", "occluding_part") and ref:
+            return self.pick((f"How many {rest} is {ref} occluded by?", f"By how many {rest} is {ref} occluded?",
+                              f"How many {rest} are occluding {ref}?", f"How many {rest} is {ref} hidden by?",
+                              f"What number of {rest} occlude {ref}?", f"How many {rest} block {ref}?"))
+        if d.via == "occluded_by" and ref:
+            return self.pick((f"How many {rest} does {ref} occlude?", f"How many {rest} is {ref} occluding?",
+                              f"How many {rest} does {ref} block?", f"How many {rest} does {ref} hide?",
+                              f"What number of {rest} does {ref} occlude?"))
+        return None
 
     def _count_exist_parts(self, part: _Part, count: bool) -> str:
         owner = part.owner
@@ -510,12 +664,49 @@ class Realiser:
             frames += [f"Are {x} and {y} the same type of vehicle?", f"Is {x} the same kind of vehicle as {y}?"]
         return self.pick(frames)
 
+    def _more_count_frames(self, f: str, x: str, y: str, n: str, m: str) -> list[str]:
+        if f == "greater_than":
+            big = self.pick(("greater", "larger", "bigger", "higher", "more"))
+            return [f"Is there a {big} {n} of {x} than {y}?", f"Is the {n} of {x} {big} than the {m} of {y}?",
+                    f"Are there more {x} than there are {y}?", f"Does the {n} of {x} exceed the {m} of {y}?",
+                    f"Is the {n} of {x} {big} than that of {y}?", f"Are {x} more than {y}?",
+                    f"Are there more {x} compared to {y}?", f"Is the {n} of {x} more than the {m} of {y}?",
+                    f"Do {x} outnumber {y}?", f"Are the {x} more numerous than the {y}?",
+                    f"Does the scene contain more {x} than {y}?", f"Do you see more {x} than {y}?",
+                    f"Is it true that there are more {x} than {y}?", f"Is the {n} of {x} above the {m} of {y}?",
+                    f"Are there more {x} in the scene than {y}?", f"Are there a greater number of {x} than {y}?",
+                    f"Is there more {x} than {y}?", f"Is the {n} of {x} {big} than the {n} of {y}?"]
+        if f == "less_than":
+            small = self.pick(("less", "smaller", "fewer", "lower"))
+            return [f"Is there a {self.pick(('smaller', 'lower', 'lesser'))} {n} of {x} than {y}?",
+                    f"Is the {n} of {x} {small} than the {m} of {y}?", f"Are there fewer {x} than there are {y}?",
+                    f"Is the {n} of {x} {small} than that of {y}?", f"Are {x} fewer than {y}?",
+                    f"Are {x} less than {y}?", f"Are there less {x} than there are {y}?",
+                    f"Are the {x} less numerous than the {y}?", f"Does the scene contain fewer {x} than {y}?",
+                    f"Do you see fewer {x} than {y}?", f"Is it true that there are fewer {x} than {y}?",
+                    f"Are there fewer {x} in the scene than {y}?", f"Is the {n} of {x} below the {m} of {y}?",
+                    f"Are there a smaller number of {x} than {y}?", f"Are there fewer {x} compared to {y}?",
+                    f"Is the {n} of {x} {small} than the {n} of {y}?"]
+        return [f"Is there the same {n} of {x} and {y}?", f"Is there an equal {n} of {x} and {y}?",
+                f"Are there as many {x} as there are {y}?", f"Is the {n} of {x} the same as the {m} of {y}?",
+                f"Is the {n} of {x} equal to the {m} of {y}?", f"Are {x} and {y} equal in number?",
+                f"Are the {n}s of {x} and {y} the same?", f"Are the {n}s of {x} and {y} equal?",
+                f"Do {x} and {y} have the same {n}?", f"Is the {n} of {x} the same as that of {y}?",
+                f"Does the {n} of {x} equal the {m} of {y}?", f"Does the scene contain as many {x} as {y}?",
+                f"Are there exactly as many {x} as {y}?", f"Are there the same {n} of {x} as {y}?",
+                f"Is the {n} of {x} and {y} the same?", f"Are there equally many {x} and {y}?",
+                f"Is the {n} of {x} identical to the {m} of {y}?"]
+
     def _compare_counts(self, node: Node) -> str:
         a, b = self._in(node, 0), self._in(node, 1)
         if a.function != "count" or b.function != "count":
             raise Unrealisable("count comparison of non-counts")
         x, y = self.np(self.obj(self._in(a)), "plural"), self.np(self.obj(self._in(b)), "plural")
         f = node.function
+        n = self.pick(("number", "number", "number", "count", "amount", "quantity", "total number"))
+        m = self.pick(("number", "number", "count", "amount", "quantity"))
+        if self.chance(0.45):
+            return self.pick(self._more_count_frames(f, x, y, n, m))
         if f == "greater_than":
             more = self.pick(("more", "greater", "bigger", "larger", "higher"))
             frames = [f"Are there more {x} than {y}?", (f"Is the number of {x} {more if more != 'more' else 'greater'}"
@@ -574,45 +765,117 @@ def _category(shape: str | None) -> str | None:
 _OCCLUDED_CLAUSES = (("that is occluded", "that are occluded"), ("that is partially hidden", "that are partially hidden"),
                      ("that is blocked from view", "that are blocked from view"), ("which is occluded",
                                                                                    "which are occluded"),
-                     ("that is partly occluded", "that are partly occluded"), ("that is hidden", "that are hidden"))
+                     ("that is partly occluded", "that are partly occluded"), ("that is hidden", "that are hidden"),
+                     ("that is obscured", "that are obscured"), ("that is partially visible", "that are partially visible"),
+                     ("that is covered", "that are covered"), ("that is not fully visible", "that are not fully visible"),
+                     ("that is occluded by something", "that are occluded by something"),
+                     ("that is partially occluded", "that are partially occluded"),
+                     ("that is blocked", "that are blocked"), ("which is hidden", "which are hidden"))
 _OCCLUDED_BY = (lambda r: (f"that is occluded by {r}", f"that are occluded by {r}"),
                 lambda r: (f"occluded by {r}",) * 2,
                 lambda r: (f"that is hidden by {r}", f"that are hidden by {r}"),
                 lambda r: (f"that is blocked by {r}", f"that are blocked by {r}"),
                 lambda r: (f"that {r} occludes", f"that {r} occludes"),
-                lambda r: (f"that is partially hidden by {r}", f"that are partially hidden by {r}"))
+                lambda r: (f"that is partially hidden by {r}", f"that are partially hidden by {r}"),
+                lambda r: (f"hidden by {r}",) * 2, lambda r: (f"blocked by {r}",) * 2,
+                lambda r: (f"that is hidden behind {r}", f"that are hidden behind {r}"),
+                lambda r: (f"that is obscured by {r}", f"that are obscured by {r}"),
+                lambda r: (f"that is covered by {r}", f"that are covered by {r}"),
+                lambda r: (f"which is occluded by {r}", f"which are occluded by {r}"),
+                lambda r: (f"partially occluded by {r}",) * 2,
+                lambda r: (f"that is partly blocked by {r}", f"that are partly blocked by {r}"))
 _OCCLUDING = (lambda r: (f"that occludes {r}", f"that occlude {r}"),
               lambda r: (f"that is occluding {r}", f"that are occluding {r}"),
               lambda r: (f"that blocks {r}", f"that block {r}"),
               lambda r: (f"that hides {r}", f"that hide {r}"),
               lambda r: (f"occluding {r}",) * 2,
-              lambda r: (f"that blocks the view of {r}", f"that block the view of {r}"))
+              lambda r: (f"that blocks the view of {r}", f"that block the view of {r}"),
+              lambda r: (f"which occludes {r}", f"which occlude {r}"),
+              lambda r: (f"that obscures {r}", f"that obscure {r}"),
+              lambda r: (f"that covers {r}", f"that cover {r}"),
+              lambda r: (f"that is blocking {r}", f"that are blocking {r}"),
+              lambda r: (f"that is hiding {r}", f"that are hiding {r}"),
+              lambda r: (f"that partially occludes {r}", f"that partially occlude {r}"),
+              lambda r: (f"blocking {r}",) * 2, lambda r: (f"hiding {r}",) * 2)
 _POSE_RELATIONS = {
     "same_pose": (lambda r: (f"that faces the same direction as {r}", f"that face the same direction as {r}"),
                   lambda r: (f"facing the same way as {r}",) * 2,
                   lambda r: (f"that has the same pose as {r}", f"that have the same pose as {r}"),
                   lambda r: (f"with the same direction as {r}",) * 2,
                   lambda r: (f"pointing in the same direction as {r}",) * 2,
-                  lambda r: (f"that faces the same way as {r}", f"that face the same way as {r}")),
+                  lambda r: (f"that faces the same way as {r}", f"that face the same way as {r}"),
+                  lambda r: (f"that is facing the same direction as {r}", f"that are facing the same direction as {r}"),
+                  lambda r: (f"oriented the same way as {r}",) * 2,
+                  lambda r: (f"with the same orientation as {r}",) * 2,
+                  lambda r: (f"that is parallel to {r}", f"that are parallel to {r}"),
+                  lambda r: (f"facing in the same direction as {r}",) * 2,
+                  lambda r: (f"that points the same way as {r}", f"that point the same way as {r}"),
+                  lambda r: (f"whose pose is the same as {r}",) * 2,
+                  lambda r: (f"that has the same direction as {r}", f"that have the same direction as {r}")),
     "opposite_pose": (lambda r: (f"that faces the opposite direction to {r}", f"that face the opposite direction to {r}"),
                       lambda r: (f"facing the opposite way from {r}",) * 2,
                       lambda r: (f"that faces the opposite direction as {r}", f"that face the opposite direction as {r}"),
                       lambda r: (f"that has the opposite pose to {r}", f"that have the opposite pose to {r}"),
                       lambda r: (f"with the opposite direction of {r}",) * 2,
-                      lambda r: (f"pointing the opposite way to {r}",) * 2),
+                      lambda r: (f"pointing the opposite way to {r}",) * 2,
+                      lambda r: (f"that faces the opposite direction of {r}", f"that face the opposite direction of {r}"),
+                      lambda r: (f"facing the opposite direction from {r}",) * 2,
+                      lambda r: (f"that is facing opposite to {r}", f"that are facing opposite to {r}"),
+                      lambda r: (f"that faces the other way from {r}", f"that face the other way from {r}"),
+                      lambda r: (f"with the opposite orientation to {r}",) * 2,
+                      lambda r: (f"whose direction is opposite to {r}",) * 2,
+                      lambda r: (f"facing in the opposite direction to {r}",) * 2,
+                      lambda r: (f"that has the opposite direction of {r}", f"that have the opposite direction of {r}")),
     "vertical_pose": (lambda r: (f"that faces perpendicular to {r}", f"that face perpendicular to {r}"),
                       lambda r: (f"facing at a right angle to {r}",) * 2,
                       lambda r: (f"that faces the vertical direction as {r}", f"that face the vertical direction as {r}"),
                       lambda r: (f"whose direction is perpendicular to {r}",) * 2,
                       lambda r: (f"that is perpendicular to {r}", f"that are perpendicular to {r}"),
-                      lambda r: (f"with a pose perpendicular to {r}",) * 2),
+                      lambda r: (f"with a pose perpendicular to {r}",) * 2,
+                      lambda r: (f"facing perpendicular to {r}",) * 2,
+                      lambda r: (f"that is orthogonal to {r}", f"that are orthogonal to {r}"),
+                      lambda r: (f"that faces at a right angle to {r}", f"that face at a right angle to {r}"),
+                      lambda r: (f"whose direction is vertical to {r}",) * 2,
+                      lambda r: (f"that is facing perpendicular to {r}", f"that are facing perpendicular to {r}"),
+                      lambda r: (f"facing a direction perpendicular to {r}",) * 2,
+                      lambda r: (f"that faces a perpendicular direction to {r}", f"that face a perpendicular direction to {r}"),
+                      lambda r: (f"that faces the vertical direction of {r}", f"that face the vertical direction of {r}")),
+}
+_VERBS = ("face", "occlude", "block", "hide", "point", "obscure", "cover", "partially", "have")
+_BARE_STARTS = ("occluded", "hidden", "blocked", "facing", "pointing", "oriented", "heading", "partially", "parallel",
+                "perpendicular")
+_PASSIVE_WORDS = ("occluded", "hidden", "blocked", "partially", "partly", "obscured", "covered")
+_POSE_EXTRA = {"front_pose": ("the camera", "towards us", "toward the viewer", "frontward", "forwards"),
+               "back_pose": ("away", "away from us", "away from the viewer", "backwards", "rearward"),
+               "left_pose": ("leftwards", "towards the left", "toward the left"),
+               "right_pose": ("rightwards", "towards the right", "toward the right")}
+_IT_QUESTIONS = {
+    "color": ("what color is it?", "what is its color?", "what colour is it?", "what is its colour?",
+              "what is the color of it?", "it is what color?", "what color does it have?", "which color is it?"),
+    "size": ("what size is it?", "what is its size?", "how big is it?", "what is the size of it?", "it is what size?",
+             "is it large or small?", "how large is it?", "is it big or small?"),
+    "material": ("what material is it?", "what is its material?", "what is it made of?", "what is the material of it?",
+                 "it is made of what material?", "is it metal or rubber?", "what is it made from?",
+                 "which material is it made of?"),
+    "shape": ("what shape is it?", "what is its shape?", "what type of vehicle is it?", "what kind of vehicle is it?",
+              "what is it?", "what is the shape of it?", "what type of object is it?", "it is what shape?"),
+    "pose": ("which direction is it facing?", "what is its pose?", "which way is it facing?",
+             "what direction does it face?", "which way does it face?", "what is its orientation?",
+             "where is it facing?", "what direction is it pointing?"),
 }
 _POSE_QUESTIONS = (lambda x: f"Which direction is {x} facing?", lambda x: f"What direction does {x} face?",
                    lambda x: f"Which way is {x} facing?", lambda x: f"What is the pose of {x}?",
                    lambda x: f"Which way does {x} point?", lambda x: f"Where is {x} facing?",
                    lambda x: f"In which direction is {x} pointing?", lambda x: f"What is the facing direction of {x}?",
                    lambda x: f"Which direction does {x} face?", lambda x: f"What pose is {x} in?",
-                   lambda x: f"What direction is {x} facing?")
+                   lambda x: f"What direction is {x} facing?", lambda x: f"What is the orientation of {x}?",
+                   lambda x: f"{x} is facing which direction?", lambda x: f"{x} faces which direction?",
+                   lambda x: f"What direction is {x} pointing?", lambda x: f"What is the direction of {x}?",
+                   lambda x: f"Which direction is {x} pointing in?", lambda x: f"How is {x} oriented?",
+                   lambda x: f"What direction is {x} pointing towards?", lambda x: f"Which way is {x} pointing?",
+                   lambda x: f"What is the facing of {x}?", lambda x: f"Is {x} facing left, right, front or back?",
+                   lambda x: f"Which direction is {x} heading?", lambda x: f"In what direction is {x} facing?",
+                   lambda x: f"Which direction does {x} point to?", lambda x: f"{x} is pointing in which direction?")
 
 _ARTICLE = re.compile(r"\b([Aa]) (?=(\w+))")
 _SAYS_CONSONANT = ("uti", "uni", "use", "one")
@@ -628,5 +891,6 @@ def _finish(text: str) -> str:
         return m.group(1) + ("n " if vowel else " ")
 
     text = _ARTICLE.sub(article, text)
+    text = re.sub(r"\b([Aa])n other\b", r"\1nother", text)
     text = re.sub(r"; (\w)", lambda m: "; " + m.group(1).lower(), text)
     return text[:1].upper() + text[1:]
