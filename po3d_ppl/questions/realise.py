@@ -271,10 +271,15 @@ class Realiser:
 
     # ----- noun phrases ----------------------------------------------------------------------------------------
     def _attr_words(self, item: tuple[str, str]) -> str:
+        if item[1] in _ATTRIBUTE_EXTRA and self.chance(0.06):
+            return self.pick(_ATTRIBUTE_EXTRA[item[1]])
         return self.pick(lx.ATTRIBUTE_FORMS[item[1]])
 
     def _adjectives(self, attrs: dict[str, str]) -> list[str]:
-        return [self._attr_words((k, attrs[k])) for k in ("size", "color", "material") if k in attrs]
+        words = [self._attr_words((k, attrs[k])) for k in ("size", "color", "material") if k in attrs]
+        if len(words) > 1 and self.chance(0.08):  # people do not always keep CLEVR's size-colour-material order
+            words = [words[i] for i in self.rng.permutation(len(words))]
+        return words
 
     def _part_adjectives(self, part: _Part) -> list[str]:
         words = self._adjectives(part.attrs)
@@ -293,6 +298,8 @@ class Realiser:
         if d.shape is None:
             return self.pick(lx.THING_PLURALS if plural else lx.THING_FORMS)
         form = self.pick(lx.shape_forms(d.shape)) if self.chance(0.6) else lx.shape_forms(d.shape)[0]
+        if d.shape in _SHAPE_EXTRA and self.chance(0.08):
+            form = self.pick(_SHAPE_EXTRA[d.shape])
         return self.pick(lx.plural_forms(form)) if plural else form
 
     def np(self, d: _Obj, kind: str) -> str:
@@ -477,7 +484,8 @@ class Realiser:
                       f"Which part on {o} is {state}?", f"What part of {o} is {state}?",
                       f"The {adjs} part of {o} is which part?", f"Which of {o}'s parts is {state}?"
                       if len(o.split()) <= 4 else f"Which of the parts of {o} is {state}?",
-                      f"What is the {adjs} part of {o} called?", f"Tell me which part of {o} is {state}."]
+                      f"What is the {adjs} part of {o} called?", f"Tell me which part of {o} is {state}.",
+                      f"What is the part of {o} that is {state}?", f"Which is the {adjs} part of {o}?"]
             if "material" in part.attrs and not part.occluded and len(part.attrs) == 1:
                 frames.append(f"Which part of {o} is made of {part.attrs['material']}?")
             if "color" in part.attrs and not part.occluded and len(part.attrs) == 1:
@@ -576,13 +584,17 @@ class Realiser:
         sing, plur = d.posts[-1]
         ref = d.anchor_ref
         if d.via in ("occluding", "occluding_part") and ref and self.chance(0.6):
-            some = self.np(rest, "indef") if self.chance(0.6) else "any " + self.np(rest, "plural")
+            style = self.rng.random()
+            some = (self.np(rest, "def") if style < 0.4 else self.np(rest, "indef") if style < 0.8
+                    else "any " + self.np(rest, "plural"))
             word = self.pick(("occluded", "occluded", "hidden", "blocked", "partially occluded", "obscured",
                               "covered", "partly hidden"))
             return self.pick((f"Is {ref} {word} by {some}?", f"Is {ref} {word} by {some}?",
                               f"Is {ref} being {word} by {some}?"))
         if d.via == "occluded_by" and ref and self.chance(0.6):
-            some = self.np(rest, "indef") if self.chance(0.6) else "any " + self.np(rest, "plural")
+            style = self.rng.random()
+            some = (self.np(rest, "def") if style < 0.4 else self.np(rest, "indef") if style < 0.8
+                    else "any " + self.np(rest, "plural"))
             return self.pick((f"Does {ref} occlude {some}?", f"Is {ref} occluding {some}?", f"Does {ref} block {some}?",
                               f"Does {ref} hide {some}?", f"Does {ref} partially occlude {some}?"))
         subject = self.np(rest, "def" if self.chance(0.85) else "indef")
@@ -657,14 +669,28 @@ class Realiser:
         frames = [f"Do {x} and {y} have the same {name}?", f"Is {x} the same {name} as {y}?",
                   f"Does {x} have the same {name} as {y}?", f"Are {x} and {y} the same {name}?",
                   f"Is the {name} of {x} the same as {y}?", f"Is the {name} of {x} the same as that of {y}?",
-                  f"Do {x} and {y} share the same {name}?", f"Do {x} and {y} have an equal {name}?"]
+                  f"Do {x} and {y} share the same {name}?", f"Do {x} and {y} have an equal {name}?",
+                  f"Is the {name} of {x} equal to the {name} of {y}?", f"Are {x} and {y} of the same {name}?",
+                  f"Do {x} and {y} have matching {name}s?", f"Is {x} of the same {name} as {y}?",
+                  f"Does {x} match {y} in {name}?", f"Is the {name} of {x} and {y} the same?",
+                  f"Are {x} and {y} the same in {name}?",
+                  f"Does {x} share its {name} with {y}?", f"Is {x}'s {name} the same as {y}'s?"
+                  if len(x.split()) <= 4 and len(y.split()) <= 4 else f"Is {x} the same {name} as {y}?"]
+        if attr == "size":
+            frames += [f"Is {x} as big as {y}?", f"Is {x} as large as {y}?", f"Are {x} and {y} equally big?"]
+        if attr == "color":
+            frames += [f"Is {x} colored the same as {y}?", f"Do {x} and {y} have the same colour?"]
         if attr == "material":
-            frames += [f"Are {x} and {y} made of the same material?", f"Is {x} made of the same material as {y}?"]
+            frames += [f"Are {x} and {y} made of the same material?", f"Is {x} made of the same material as {y}?",
+                       f"Are {x} and {y} made of the same stuff?", f"Is {x} made from the same material as {y}?"]
         if attr == "shape":
-            frames += [f"Are {x} and {y} the same type of vehicle?", f"Is {x} the same kind of vehicle as {y}?"]
+            frames += [f"Are {x} and {y} the same type of vehicle?", f"Is {x} the same kind of vehicle as {y}?",
+                       f"Are {x} and {y} the same kind of object?", f"Is {x} the same type of object as {y}?",
+                       f"Do {x} and {y} have the same type?", f"Are {x} and {y} the same vehicle type?"]
         return self.pick(frames)
 
     def _more_count_frames(self, f: str, x: str, y: str, n: str, m: str) -> list[str]:
+        ns = {"quantity": "quantities", "total number": "numbers"}.get(n, n + "s")
         if f == "greater_than":
             big = self.pick(("greater", "larger", "bigger", "higher", "more"))
             return [f"Is there a {big} {n} of {x} than {y}?", f"Is the {n} of {x} {big} than the {m} of {y}?",
@@ -690,7 +716,7 @@ class Realiser:
         return [f"Is there the same {n} of {x} and {y}?", f"Is there an equal {n} of {x} and {y}?",
                 f"Are there as many {x} as there are {y}?", f"Is the {n} of {x} the same as the {m} of {y}?",
                 f"Is the {n} of {x} equal to the {m} of {y}?", f"Are {x} and {y} equal in number?",
-                f"Are the {n}s of {x} and {y} the same?", f"Are the {n}s of {x} and {y} equal?",
+                f"Are the {ns} of {x} and {y} the same?", f"Are the {ns} of {x} and {y} equal?",
                 f"Do {x} and {y} have the same {n}?", f"Is the {n} of {x} the same as that of {y}?",
                 f"Does the {n} of {x} equal the {m} of {y}?", f"Does the scene contain as many {x} as {y}?",
                 f"Are there exactly as many {x} as {y}?", f"Are there the same {n} of {x} as {y}?",
@@ -844,6 +870,12 @@ _POSE_RELATIONS = {
 _VERBS = ("face", "occlude", "block", "hide", "point", "obscure", "cover", "partially", "have")
 _BARE_STARTS = ("occluded", "hidden", "blocked", "facing", "pointing", "oriented", "heading", "partially", "parallel",
                 "perpendicular")
+#: Rarer words for attribute values and shapes (the realiser's own; the lexicon keeps the public ones).
+_ATTRIBUTE_EXTRA = {"large": ("giant", "enormous"), "small": ("miniature", "small-sized"),
+                    "metal": ("metallic", "glossy", "shiny metal"), "rubber": ("matt", "rubbery", "matte rubber")}
+_SHAPE_EXTRA = {"truck": ("pickup",), "minivan": ("van",), "airliner": ("passenger jet", "jetliner", "airliner plane"),
+                "scooter": ("moped",), "fighter": ("fighter aircraft", "warplane"), "car": ("auto",),
+                "aeroplane": ("airplane",), "motorbike": ("motorcycle",), "bicycle": ("bike",)}
 _PASSIVE_WORDS = ("occluded", "hidden", "blocked", "partially", "partly", "obscured", "covered")
 _POSE_EXTRA = {"front_pose": ("the camera", "towards us", "toward the viewer", "frontward", "forwards"),
                "back_pose": ("away", "away from us", "away from the viewer", "backwards", "rearward"),

@@ -50,7 +50,9 @@ def np(d: str) -> str:
 
 
 def np_without(d: str, attr: str) -> str:
-    return " ".join(f"<{x}{d}>" for x in "ZCMS" if x != LETTER[attr])
+    """The noun phrase without ``attr``'s slot; without the shape slot the noun is "thing" (as CLEVR says it)."""
+    words = " ".join(f"<{x}{d}>" for x in "ZCMS" if x != LETTER[attr])
+    return words + " thing" if attr == "shape" else words
 
 
 QUERY_TEXT = {
@@ -289,6 +291,7 @@ def same_relate() -> list[dict]:
                 t.add(f"query_{kind}", [u])
                 t.null(f"<{LETTER[kind]}2>")
                 thing = " ".join(f"<{x}2>" for x in "ZCMS" if x not in (LETTER[attr], LETTER[kind]))
+                thing += " thing" if "shape" in (attr, kind) else ""
                 texts = _fmt(QUERY_TEXT[kind], x=f"the other {thing} that has the same {attr} as {anchor}")
             out.append(t.done(texts))
     return out
