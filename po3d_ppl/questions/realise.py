@@ -480,12 +480,11 @@ class Realiser:
             frames = [f"Which part of {o} is {state}?", f"What part of {o} is {state}?",
                       f"Which of the parts of {o} is {state}?", f"Which part of {o} is {state}?",
                       f"What is the {adjs} part of {o}?", f"Which {adjs} part does {o} have?",
-                      f"Name the part of {o} that is {state}.", f"What is the name of the part of {o} that is {state}?",
                       f"Which part on {o} is {state}?", f"What part of {o} is {state}?",
                       f"The {adjs} part of {o} is which part?", f"Which of {o}'s parts is {state}?"
                       if len(o.split()) <= 4 else f"Which of the parts of {o} is {state}?",
                       f"What is the {adjs} part of {o} called?", f"Tell me which part of {o} is {state}.",
-                      f"What is the part of {o} that is {state}?", f"Which is the {adjs} part of {o}?"]
+                      f"Which is the {adjs} part of {o}?"]
             if "material" in part.attrs and not part.occluded and len(part.attrs) == 1:
                 frames.append(f"Which part of {o} is made of {part.attrs['material']}?")
             if "color" in part.attrs and not part.occluded and len(part.attrs) == 1:
@@ -579,11 +578,13 @@ class Realiser:
 
     def _relation_yes_no(self, d: _Obj) -> str | None:
         """Exist over a relation, said of one object: "Is the car behind the bus?", "Does the truck occlude the
-        bus?", "Is the bus occluded by a red car?", "Is the front wheel of the car occluded by the bus?"."""
+        bus?", "Is the front wheel of the car occluded by the bus?"."""
         rest = _strip_posts(d)
         sing, plur = d.posts[-1]
         ref = d.anchor_ref
-        if d.via in ("occluding", "occluding_part") and ref and self.chance(0.6):
+        # Only for parts: "Is the bus occluded by the car?" is said of relate_occluding (the generic clause
+        # below), "Does the car occlude the bus?" of relate_occluded; one wording, one program.
+        if d.via == "occluding_part" and ref and self.chance(0.6):
             style = self.rng.random()
             some = (self.np(rest, "def") if style < 0.4 else self.np(rest, "indef") if style < 0.8
                     else "any " + self.np(rest, "plural"))
@@ -591,12 +592,6 @@ class Realiser:
                               "covered", "partly hidden"))
             return self.pick((f"Is {ref} {word} by {some}?", f"Is {ref} {word} by {some}?",
                               f"Is {ref} being {word} by {some}?"))
-        if d.via == "occluded_by" and ref and self.chance(0.6):
-            style = self.rng.random()
-            some = (self.np(rest, "def") if style < 0.4 else self.np(rest, "indef") if style < 0.8
-                    else "any " + self.np(rest, "plural"))
-            return self.pick((f"Does {ref} occlude {some}?", f"Is {ref} occluding {some}?", f"Does {ref} block {some}?",
-                              f"Does {ref} hide {some}?", f"Does {ref} partially occlude {some}?"))
         subject = self.np(rest, "def" if self.chance(0.85) else "indef")
         for prefix in ("that is ", "which is "):
             if sing.startswith(prefix):
