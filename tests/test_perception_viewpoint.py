@@ -73,6 +73,10 @@ def test_combine_pose_is_a_normalised_product():
     expected = torch.log_softmax(rc[1, 3] + vp[1].double(), -1)
     assert torch.allclose(out[1, 3], expected)
     assert torch.allclose(combine_pose(rc, support, vp, weight=0.0), rc)
+    tempered = combine_pose(rc, support, vp, weight=0.5, temperature=2.0)
+    assert torch.allclose(tempered[0, 1], torch.log_softmax((rc[0, 1] + 0.5 * vp[0].double()) / 2.0, -1))
+    with pytest.raises(InputError, match="temperature"):
+        combine_pose(rc, support, vp, temperature=0.0)
     with pytest.raises(InputError, match="viewpoint_loglik"):
         combine_pose(rc, support, vp[:, :6])
     with pytest.raises(InputError, match="bins"):

@@ -64,8 +64,11 @@ class SceneParserConfig:
     estimate_height: bool = True
     height_candidates: int = 21
     min_height_pixels: int = 200
-    #: Exponent of the viewpoint network's azimuth reading in the product with the render-and-compare pose table.
+    #: The viewpoint network's azimuth reading multiplies the render-and-compare pose table
+    #: (:func:`~po3d_ppl.perception.viewpoint.combine_pose`): its exponent, and the temperature of the product,
+    #: chosen on seed 712 by ``benchmarks/viewpoint_weight.py`` (lowest NLL of the true bin).
     viewpoint_weight: float = 1.0
+    pose_temperature: float = 2.15
 
     def __post_init__(self) -> None:
         if not (isinstance(self.pose_hypotheses, int) and self.pose_hypotheses >= 1):
@@ -207,7 +210,7 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
         from po3d_ppl.perception.viewpoint import combine_pose
 
         pose_ll = combine_pose(pose_ll, proposals.pose_support, viewpoint.azimuth_loglik(img, proposals.masks),
-                               config.viewpoint_weight)
+                               config.viewpoint_weight, config.pose_temperature)
     timings["viewpoint"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     xy = proposals.positions[:, :2].tolist()

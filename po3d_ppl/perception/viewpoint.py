@@ -149,20 +149,23 @@ class ViewpointNet(nn.Module):
 
 
 def combine_pose(pose_loglik: torch.Tensor, pose_support: torch.Tensor, viewpoint_loglik: torch.Tensor,
-                 weight: float = 1.0) -> torch.Tensor:
-    """``log P(azimuth | category)`` [N, 5, K] of the render-and-compare table times the viewpoint reading
-    ``[N, K]`` (raised to ``weight``), renormalised per category. The support must be the network's bins."""
+                 weight: float = 1.0, temperature: float = 1.0) -> torch.Tensor:
+    """``log P(azimuth | category)`` [N, 5, K]: the render-and-compare table times the viewpoint reading ``[N, K]``
+    raised to ``weight``, the product tempered by ``temperature`` (the two readings see the same pixels, so their
+    errors are not independent) and renormalised per category. The support must be the network's bins."""
     n, _, k = pose_loglik.shape
     if viewpoint_loglik.shape != (n, k):
         raise InputError("viewpoint_loglik", f"expected [{n}, {k}] to match the pose table, got "
                                              f"{list(viewpoint_loglik.shape)}")
+    if not (weight >= 0 and temperature > 0):
+        raise InputError("combine_pose", f"weight must be >= 0 and temperature > 0, got {weight}, {temperature}")
     if n:
         centres = torch.arange(k, dtype=pose_support.dtype) * (360.0 / k)
         if not torch.allclose(pose_support, centres.expand_as(pose_support), atol=1e-6):
             raise InputError("pose_support", f"the viewpoint network reads {k} bins at multiples of {360 / k} "
                                              "degrees; the object parser's azimuth bins differ")
     combined = pose_loglik + weight * viewpoint_loglik.to(pose_loglik.dtype)[:, None, :]
-    return torch.log_softmax(combined, -1)
+    return torch.log_softmax(combined / temperature, -1)
 
 
 # --- files -----------------------------------------------------------------------------------------------------------
