@@ -696,7 +696,8 @@ class Realiser:
                     f"Does the scene contain more {x} than {y}?", f"Do you see more {x} than {y}?",
                     f"Is it true that there are more {x} than {y}?", f"Is the {n} of {x} above the {m} of {y}?",
                     f"Are there more {x} in the scene than {y}?", f"Are there a greater number of {x} than {y}?",
-                    f"Is there more {x} than {y}?", f"Is the {n} of {x} {big} than the {n} of {y}?"]
+                    f"Is there more {x} than {y}?", f"Is the {n} of {x} {big} than the {n} of {y}?",
+                    f"Is the {n} of {x} higher than the {m} of {y}?", f"Is the {n} of {x} higher than that of {y}?"]
         if f == "less_than":
             small = self.pick(("less", "smaller", "fewer", "lower"))
             return [f"Is there a {self.pick(('smaller', 'lower', 'lesser'))} {n} of {x} than {y}?",
@@ -707,7 +708,9 @@ class Realiser:
                     f"Do you see fewer {x} than {y}?", f"Is it true that there are fewer {x} than {y}?",
                     f"Are there fewer {x} in the scene than {y}?", f"Is the {n} of {x} below the {m} of {y}?",
                     f"Are there a smaller number of {x} than {y}?", f"Are there fewer {x} compared to {y}?",
-                    f"Is the {n} of {x} {small} than the {n} of {y}?"]
+                    f"Is the {n} of {x} {small} than the {n} of {y}?",
+                    f"Is the {n} of {x} lower than the {m} of {y}?", f"Is the {n} of {x} lower than that of {y}?",
+                    f"Is there a lower {n} of {x} than {y}?"]
         return [f"Is there the same {n} of {x} and {y}?", f"Is there an equal {n} of {x} and {y}?",
                 f"Are there as many {x} as there are {y}?", f"Is the {n} of {x} the same as the {m} of {y}?",
                 f"Is the {n} of {x} equal to the {m} of {y}?", f"Are {x} and {y} equal in number?",
