@@ -6,7 +6,8 @@ A back-end is anything with ``evidence(observation) -> SceneEvidence`` (:class:`
   with the shipped models; :func:`~po3d_ppl.perception.scene_parser.parse_scene`): the stride-8 features and
   neural meshes (:mod:`~po3d_ppl.perception.features`, :mod:`~po3d_ppl.perception.neural_mesh`), the multi-object
   parser (:func:`~po3d_ppl.perception.object_parser.parse_objects`), the background model, calibrated tables, the
-  attribute network, and parts and occlusion by projecting the world's part-labelled meshes;
+  attribute network, the viewpoint network (whole-object azimuth), and parts and occlusion by projecting the
+  world's part-labelled meshes;
 - the simulated sensor (:mod:`po3d_ppl.perception.simulated`), for reasoning on its own.
 
 Perception imports the world and the contract (:mod:`po3d_ppl.evidence`), never reasoning. The image modules are
@@ -49,6 +50,7 @@ _LAZY = {
     "SceneParserConfig": "scene_parser", "BackgroundModel": "background", "load_background": "background",
     "TableCalibration": "calibration", "load_calibration": "calibration",
     "AttributeNet": "attributes", "load_attribute_net": "attributes",
+    "ViewpointNet": "viewpoint", "load_viewpoint_net": "viewpoint", "combine_pose": "viewpoint",
 }
 
 __all__ = ["EvidenceSource", "SceneEvidence", "SimulatedSensor", "simulated_evidence", *_LAZY]

@@ -15,6 +15,10 @@ part tables: they average over poses rather than trusting one), squashed into lo
 the world's renderer and rules, rather than re-implementing them on the torch rasteriser, means perception and
 the world agree by construction on what "visible" and "occluded" mean.
 
+**Pose before projection.** The object parser's pose table is multiplied by the viewpoint network's whole-object
+azimuth reading (:mod:`po3d_ppl.perception.viewpoint`) when one is shipped, before anything is projected: a
+flipped azimuth would put every projected part on the wrong pixels (left for right, front for back).
+
 **Tables without an attribute reader.** Colour, material and part-style tables are uninformative (zeros: the
 scene model's prior decides) and subtypes of one category tie, until an attribute network is given
 (``attributes=``); :attr:`ParsedScene.notes` says so.
@@ -33,6 +37,7 @@ import torch
 from po3d_ppl import ontology
 from po3d_ppl.errors import InputError
 from po3d_ppl.evidence import DTYPE, NUM_STYLES, P, S, SceneEvidence
+from po3d_ppl.perception.alignment import AlignmentConfig, align_silhouette
 from po3d_ppl.perception.image_input import ImageInput, load_image, project_points
 from po3d_ppl.perception.object_parser import parse_objects, yaw_of
 from po3d_ppl.perception.simulated import VISIBLE_PART_PIXELS
@@ -69,6 +74,9 @@ class SceneParserConfig:
     #: chosen on seed 712 by ``benchmarks/viewpoint_weight.py`` (lowest NLL of the true bin).
     viewpoint_weight: float = 1.0
     pose_temperature: float = 2.15
+    #: Align each proposal's subtype silhouette to its visible mask (yaw and pixel shift) before projecting parts
+    #: (:mod:`po3d_ppl.perception.alignment`); ``None`` keeps the object parser's pose.
+    alignment: AlignmentConfig | None = field(default_factory=AlignmentConfig)
 
     def __post_init__(self) -> None:
         if not (isinstance(self.pose_hypotheses, int) and self.pose_hypotheses >= 1):
@@ -220,8 +228,13 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
         notes.append("camera height not estimated (the base camera's)")
     timings["camera"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    tables, projections, positions, depths, best_view = _project(proposals, xy, subtype_ll, size_ll, pose_ll,
-                                                                 camera, config, attributes, img)
+    yaw_offsets = [0.0] * n
+    if config.alignment is not None and n:
+        xy, yaw_offsets = align_poses(proposals, xy, subtype_ll, size_ll, pose_ll, camera, config.alignment)
+    timings["alignment"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    tables, projections, positions, depths, best_view = _project(proposals, xy, yaw_offsets, subtype_ll, size_ll,
+                                                                 pose_ll, camera, config, attributes, img)
     timings["projection"] = time.perf_counter() - t0
     evidence = SceneEvidence(
         exist_logodds=exist.to(DTYPE), subtype_loglik=subtype_ll.to(DTYPE), color_loglik=color_ll,
@@ -310,6 +323,35 @@ def estimate_camera_height(proposals, subtype_ll: torch.Tensor, size_ll: torch.T
     return camera, backproject_to_plane(camera, pixels)[:, :2].tolist()
 
 
+def align_poses(proposals, xy: list[list[float]], subtype_ll: torch.Tensor, size_ll: torch.Tensor,
+                pose_ll: torch.Tensor, camera: Camera, config: AlignmentConfig
+                ) -> tuple[list[list[float]], list[float]]:
+    """Ground positions and yaw offsets (degrees, added to every azimuth hypothesis) after aligning each proposal's
+    most likely subtype silhouette with its visible mask (:func:`~po3d_ppl.perception.alignment.align_silhouette`);
+    an image shift is carried to the ground through ``camera`` at the object's base point."""
+    from po3d_ppl.perception.image_input import backproject_to_plane
+
+    ownership = proposals.ownership.numpy()
+    out_xy, offsets = [list(p) for p in xy], [0.0] * len(xy)
+    for i, (s, size, azimuth, _) in enumerate(_best_readings(subtype_ll, size_ll, pose_ll, proposals.pose_support)):
+        mask = proposals.masks[i].numpy()
+        x, y = xy[i]
+        yaw = yaw_of(camera, x, y, azimuth)
+
+        def render(offset: float, x=x, y=y, yaw=yaw, s=s, size=size, shape=mask.shape) -> np.ndarray:
+            return _silhouette(_spec(SUBTYPES[s], size, x, y, yaw + offset), camera, shape)
+
+        found = align_silhouette(render, mask, (ownership < 0) | (ownership == i), config)
+        offsets[i] = found.yaw_offset
+        if found.shift != (0, 0):
+            base = project_points(camera, np.array([[x, y, 0.0]]))[0, :2]
+            moved = torch.tensor([[float(base[0]) + found.shift[0], float(base[1]) + found.shift[1]]],
+                                 dtype=DTYPE)
+            ground = backproject_to_plane(camera, moved)
+            out_xy[i] = [float(ground[0, 0]), float(ground[0, 1])]
+    return out_xy, offsets
+
+
 def _mixed_styles(attributes: AttributeNet, img: ImageInput, masks: torch.Tensor,
                   part_maps: list[dict[tuple[int, int], torch.Tensor]], weights: torch.Tensor) -> torch.Tensor:
     """The part-style table as a mixture over pose hypotheses: each hypothesis puts the parts elsewhere in the
@@ -330,9 +372,9 @@ def _mixed_styles(attributes: AttributeNet, img: ImageInput, masks: torch.Tensor
     return torch.where(shown, mixture - torch.logsumexp(mixture, -1, keepdim=True), torch.zeros_like(mixture))
 
 
-def _project(proposals, xy: list[list[float]], subtype_ll: torch.Tensor, size_ll: torch.Tensor,
-             pose_ll: torch.Tensor, camera: Camera, config: SceneParserConfig, attributes: AttributeNet | None,
-             img: ImageInput):
+def _project(proposals, xy: list[list[float]], yaw_offsets: list[float], subtype_ll: torch.Tensor,
+             size_ll: torch.Tensor, pose_ll: torch.Tensor, camera: Camera, config: SceneParserConfig,
+             attributes: AttributeNet | None, img: ImageInput):
     """Occlusion and part tables by projection, and positions (box centres) and depths of the best hypotheses."""
     n = len(proposals)
     floor = config.projection_floor
@@ -363,7 +405,7 @@ def _project(proposals, xy: list[list[float]], subtype_ll: torch.Tensor, size_ll
 
     def spec(i: int, subtype: int, k: int):
         x, y = xy[i]
-        return _spec(SUBTYPES[subtype], sizes[i], x, y, yaw_of(camera, x, y, float(support[i, k])))
+        return _spec(SUBTYPES[subtype], sizes[i], x, y, yaw_of(camera, x, y, float(support[i, k])) + yaw_offsets[i])
 
     best = [spec(i, weights[i][0][0], pose_hypotheses(i, weights[i][0][0])[0][0]) for i in range(n)]
     projector = _Projector(camera, best)
