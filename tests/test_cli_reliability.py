@@ -83,7 +83,8 @@ def test_answer_prints_parses_with_their_values(scene_file):
                                  "--parses", "2"], env={"COLUMNS": "200"})
     assert result.exit_code == 0, result.output
     lines = result.output.splitlines()
-    assert "count(filter_shape[car](scene()))" in lines[0], result.output
+    # "x" is an unknown word where an adjective goes: the parser may read it as a filter, with a warning
+    assert "count(filter_shape[car](" in lines[0], result.output
     assert all("[" in line for line in lines[:2]), result.output  # no parse lost its values
     assert any(line.startswith("unknown words:") for line in lines), result.output
 

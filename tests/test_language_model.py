@@ -66,13 +66,48 @@ ISSUE_CASES = [
      "scene() | filter_size[large] | filter_material[rubber] | filter_shape[school] | unique | query_color"),
 ]
 
+#: Phrasing structures the realiser learnt to write after the first independent evaluation (written here by hand,
+#: in the style of the CLEVR / Super-CLEVR-3D files; not taken from the independent set).
+NEW_FORM_CASES = [
+    ("There is a small bus; what color is it?",
+     "scene() | filter_size[small] | filter_shape[bus] | unique | query_color"),
+    ("There is a metal thing that is behind the car; what size is it?",
+     "scene() | filter_shape[car] | unique | relate[behind] | filter_material[metal] | unique | query_size"),
+    ("What is occluding the car?", "scene() | filter_shape[car] | unique | relate_occluded | unique | query_shape"),
+    ("Is there a greater number of sedans than minivans?",
+     "greater_than(scene() | filter_shape[sedan] | count, scene() | filter_shape[minivan] | count)"),
+    ("Is the quantity of red cars the same as the quantity of blue cars?",
+     ("equal_integer(scene() | filter_color[red] | filter_shape[car] | count,"
+      " scene() | filter_color[blue] | filter_shape[car] | count)")),
+    ("Does the number of big cars exceed the number of small bikes?",
+     ("greater_than(scene() | filter_size[large] | filter_shape[car] | count,"
+      " scene() | filter_size[small] | filter_shape[bicycle] | count)")),
+    ("Is the trunk of the sedan occluded by the red truck?",
+     ("scene() | filter_shape[sedan] | unique | object2part_all | partfilter_partname[trunk] | unique"
+      " | relate_part_occluded | filter_color[red] | filter_shape[truck] | exist")),
+    ("Is the number of buses lower than the number of cars?",
+     "less_than(scene() | filter_shape[bus] | count, scene() | filter_shape[car] | count)"),
+    ("Does the red bus occlude the car?",
+     "scene() | filter_shape[car] | unique | relate_occluded | filter_color[red] | filter_shape[bus] | exist"),
+    ("What color is the mirror that belongs to the same object as the red door?",
+     ("scene() | object2part | partfilter_color[red] | partfilter_partname[door] | unique | part2object"
+      " | object2part | partfilter_partname[mirror] | unique | partquery_color")),
+    ("What is the orientation of the green scooter?",
+     "scene() | filter_color[green] | filter_shape[scooter] | unique | query_pose"),
+    ("How many cars are oriented the same way as the bus?",
+     "scene() | filter_shape[bus] | unique | same_pose | filter_shape[car] | count"),
+    ("Are the bus and the car of the same color?",
+     ("equal_color(scene() | filter_shape[bus] | unique | query_color,"
+      " scene() | filter_shape[car] | unique | query_color)")),
+]
+
 
 @pytest.fixture(scope="module")
 def parser(torch_one_thread):
     return QuestionParser.load()
 
 
-@pytest.mark.parametrize(("question", "text"), CASES + ISSUE_CASES)
+@pytest.mark.parametrize(("question", "text"), CASES + ISSUE_CASES + NEW_FORM_CASES)
 def test_shipped_parser_reads_dataset_style_questions(parser, question, text):
     result = parser.parse(question, n=3)
     assert program_to_tokens(result.best.program) == program_to_tokens(parse_program(text))
