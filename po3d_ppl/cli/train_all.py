@@ -1,0 +1,450 @@
+"""``po3d train all``: every training stage in dependency order, from the datasets to the fitted priors.
+
+The stages are the existing ``po3d train X`` commands, called in process with the settings of the shipped models
+(``--scale full``: the ``command`` and ``data_commands`` of each entry of models/manifest.json) or with a handful of
+scenes and steps (``--scale tiny``: the whole chain in CI). Each stage shows its command's own progress bars (the
+parser calibration, which has none, gets one here); each is timed (wall and CPU seconds) and the timings are
+printed as a table and written to ``OUT/train_all.json`` next to the weights and their manifest.
+
+Stages read what earlier stages wrote into ``--out`` (the object calibration parses images with the feature model
+and the background model of ``--out``), so ``--stages`` can resume a chain; a missing prerequisite is an
+:class:`~po3d_ppl.errors.InputError` that names the stage to run first. Seed 713 is the held-out test seed: no
+dataset of this command uses it.
+
+Register with ``"train_all"`` in ``po3d_ppl.cli._MODULES``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import inspect
+import json
+import os
+import shlex
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+#: Every stage, in the order they run (each reads only what the ones before it wrote).
+STAGES = ("datasets", "parser", "perception", "background", "calibration", "attributes", "viewpoint", "priors")
+#: The held-out test seed: never built or read by ``po3d train all``.
+TEST_SEED = 713
+#: The report written next to the weights.
+REPORT = "train_all.json"
+#: The fitted priors' file in --out (the shipped defaults stay hand-set).
+PRIORS_FILE = "priors.json"
+
+_DESCRIPTIONS = {
+    "datasets": "po3d dataset build: rendered training and validation scenes",
+    "parser": "po3d train parser, then po3d train parser-calibration",
+    "perception": "po3d train perception: feature extractor, neural meshes, clutter bank",
+    "background": "po3d train background: the bare ground, lit and shadowed",
+    "calibration": "po3d train calibration: object parser tables (uses --out's features and background)",
+    "attributes": "po3d train attributes: subtype, colour, material, size, part looks",
+    "viewpoint": "po3d train viewpoint: azimuth network and its temperature",
+    "priors": f"po3d train priors: the world's rates, written to {PRIORS_FILE}",
+}
+#: model name in the manifest -> (stage that writes it, what it is)
+_MODELS = {
+    "question_parser": ("parser", "question parser"),
+    "perception_features": ("perception", "perception features"),
+    "background": ("background", "background model"),
+    "object_calibration": ("calibration", "object calibration"),
+    "attributes": ("attributes", "attribute network"),
+    "viewpoint": ("viewpoint", "viewpoint network"),
+}
+#: models each stage reads from --out (written by an earlier stage)
+_NEEDS_MODELS = {"calibration": ("perception_features", "background")}
+
+
+@dataclass(frozen=True)
+class DatasetSpec:
+    """One dataset of the chain: ``DATA/<name>`` built with ``po3d dataset build --scenes N --seed S``."""
+
+    name: str
+    seed: int
+    scenes: int
+
+
+@dataclass(frozen=True)
+class Scale:
+    """The datasets and each stage's settings (options of its ``po3d train`` command, by parameter name)."""
+
+    name: str
+    datasets: tuple[DatasetSpec, ...]
+    parser: dict[str, Any]
+    parser_calibration: dict[str, Any]
+    perception: dict[str, Any]
+    background: dict[str, Any]
+    calibration: dict[str, Any]
+    attributes: dict[str, Any]
+    viewpoint: dict[str, Any]
+    #: which datasets (by name) each stage trains on; ``val`` is the validation / calibration dataset
+    train_sets: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    val: str = "val_s712"
+    #: whether the perception, attribute and viewpoint stages also measure on ``val`` (as the shipped runs did)
+    evaluate: bool = True
+
+
+#: The shipped models' settings (models/manifest.json: each entry's command and data_commands).
+FULL = Scale(
+    name="full",
+    datasets=(DatasetSpec("train_s711", 711, 400), DatasetSpec("train_s714", 714, 600),
+              DatasetSpec("train_s715", 715, 800), DatasetSpec("val_s712", 712, 120)),
+    parser={"corpus": 130000, "corpus_seed": 1, "corpus_val": 2000, "ngram_buckets": 4096, "word_dropout": 0.05,
+            "max_minutes": 28.0, "epochs": 3, "batch_size": 64, "lr": 0.002, "hidden": 128, "embed": 64},
+    parser_calibration={"corpus_seed": 2001, "questions": 1500},
+    perception={"epochs": 34, "batch_size": 8, "crop": "256x320", "lr": 0.002, "dim": 64, "splits": "train,val",
+                "eval_limit": 60},
+    background={"split": "train", "limit": 80},
+    # the shipped calibration used a 60-scene build of seed 712: the first 60 images of the 120-scene one
+    calibration={"limit": 60},
+    attributes={"epochs": 18, "batch_size": 32, "lr": 0.003, "part_fraction": 0.25, "splits": "train,test",
+                "val_split": "val"},
+    viewpoint={"epochs": 30, "batch_size": 32, "lr": 0.003, "splits": "train,test", "val_split": "val"},
+    train_sets={"perception": ("train_s711",), "background": ("train_s711",), "priors": ("train_s711",),
+                "attributes": ("train_s711", "train_s714", "train_s715"), "viewpoint": ("train_s711", "train_s714")},
+)
+
+#: A handful of scenes and a few steps a stage: the whole chain in CI (minutes become seconds; toy weights).
+TINY = Scale(
+    name="tiny",
+    datasets=(DatasetSpec("train_s711", 711, 8), DatasetSpec("val_s712", 712, 3)),
+    parser={"corpus": 200, "corpus_seed": 1, "corpus_val": 20, "ngram_buckets": 64, "word_dropout": 0.05,
+            "epochs": 1, "batch_size": 16, "lr": 0.002, "hidden": 16, "embed": 16, "max_steps": 3},
+    parser_calibration={"corpus_seed": 2001, "questions": 50},
+    # enough steps for the toy features to propose objects, real and spurious: the calibration's Platt fit needs both
+    perception={"epochs": 200, "batch_size": 2, "crop": "128x160", "lr": 0.005, "dim": 16, "splits": "train",
+                "max_steps": 200},
+    background={"split": "train", "limit": 5},
+    calibration={"limit": 3},
+    attributes={"epochs": 1, "batch_size": 4, "lr": 0.003, "part_fraction": 0.25, "splits": "train",
+                "val_split": "val", "max_steps": 2},
+    viewpoint={"epochs": 1, "batch_size": 4, "lr": 0.003, "splits": "train", "val_split": "val", "max_steps": 2},
+    train_sets={"perception": ("train_s711",), "background": ("train_s711",), "priors": ("train_s711",),
+                "attributes": ("train_s711",), "viewpoint": ("train_s711",)},
+    evaluate=False,
+)
+SCALES = {"full": FULL, "tiny": TINY}
+
+
+@dataclass
+class Step:
+    """One command of a stage: ``fn(**kwargs)``, and the equivalent command line."""
+
+    label: str
+    fn: Callable[..., Any]
+    kwargs: dict[str, Any]
+    words: list[str]
+    bar: bool = False  # the command has no progress bar of its own: show one around it
+    context: Callable[[], contextlib.AbstractContextManager] = contextlib.nullcontext
+
+
+def invoke(fn: Callable[..., Any], **kwargs: Any) -> Any:
+    """Call a typer command function with ``kwargs``, every other parameter at its command-line default (typer
+    keeps those in ``OptionInfo`` defaults, which a plain call would pass through as they are)."""
+    from typer.models import ParameterInfo
+
+    parameters = inspect.signature(fn).parameters
+    unknown = set(kwargs) - set(parameters)
+    if unknown:
+        raise TypeError(f"{fn.__name__} has no parameter {', '.join(sorted(unknown))}")
+    call = {}
+    for name, parameter in parameters.items():
+        if name in kwargs:
+            call[name] = kwargs[name]
+            continue
+        default = parameter.default
+        if isinstance(default, ParameterInfo):
+            default = default.default
+        if default is inspect.Parameter.empty or default is ...:
+            raise TypeError(f"{fn.__name__}: {name} is required")
+        call[name] = default
+    return fn(**call)
+
+
+def command_words(prefix: list[str], kwargs: dict[str, Any]) -> list[str]:
+    """The command line equivalent to calling a command with ``kwargs`` (``--some-option value``; lists repeat)."""
+    words = list(prefix)
+    for name, value in kwargs.items():
+        if value is None or value is False:
+            continue
+        option = "--" + name.replace("_", "-")
+        if value is True:
+            words.append(option)
+        elif isinstance(value, (list, tuple)):
+            for item in value:
+                words += [option, str(item)]
+        else:
+            words += [option, str(value)]
+    return words
+
+
+@contextlib.contextmanager
+def models_from(directory: Path) -> Iterator[None]:
+    """The object parser reads its feature model and background model from ``directory`` instead of the shipped
+    models/ (``parse_objects`` takes the feature model as an argument but the background only from its default;
+    both defaults are swapped here and restored afterwards)."""
+    from po3d_ppl.perception import object_parser
+    from po3d_ppl.perception.background import load_background
+    from po3d_ppl.perception.neural_mesh import load_feature_model
+
+    model, background = load_feature_model(directory), load_background(directory)
+    saved = object_parser._default_model, object_parser._default_background
+    object_parser._default_model, object_parser._default_background = (lambda: model), (lambda: background)
+    try:
+        yield
+    finally:
+        object_parser._default_model, object_parser._default_background = saved
+
+
+def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[str, list[Step]]:
+    """Every stage's steps for ``scale``, datasets under ``data``, models into ``out``."""
+    from po3d_ppl.cli.attributes import train_attributes_command
+    from po3d_ppl.cli.dataset import build
+    from po3d_ppl.cli.language import calibrate_parser_command, train_parser_command
+    from po3d_ppl.cli.objects import train_background_command, train_calibration_command
+    from po3d_ppl.cli.perception import train_perception_command
+    from po3d_ppl.cli.priors import train_priors
+    from po3d_ppl.cli.viewpoint import train_viewpoint_command
+
+    def path(name: str) -> Path:
+        return data / name
+
+    def sets(stage: str) -> list[Path]:
+        return [path(n) for n in scale.train_sets[stage]]
+
+    val = path(scale.val)
+    held = val if scale.evaluate else None
+
+    def step(label: str, fn, prefix: list[str], bar: bool = False, context=contextlib.nullcontext, **kwargs):
+        return Step(label, fn, kwargs, command_words(prefix, kwargs), bar, context)
+
+    steps: dict[str, list[Step]] = {
+        "datasets": [step(f"dataset {d.name}", build, ["po3d", "dataset", "build"], out=path(d.name),
+                          scenes=d.scenes, seed=d.seed, workers=1) for d in scale.datasets],
+        "parser": [step("parser", train_parser_command, ["po3d", "train", "parser"], **scale.parser, seed=seed,
+                        threads=threads, out=out),
+                   step("parser calibration", calibrate_parser_command, ["po3d", "train", "parser-calibration"],
+                        bar=True, model_dir=out, **scale.parser_calibration, threads=threads)],
+        "perception": [step("perception", train_perception_command, ["po3d", "train", "perception"],
+                            data=sets("perception"), seed=seed, **scale.perception, threads=threads,
+                            eval_data=held, out=out)],
+        "background": [step("background", train_background_command, ["po3d", "train", "background"],
+                            data=sets("background")[0], **scale.background, out=out)],
+        "calibration": [step("calibration", train_calibration_command, ["po3d", "train", "calibration"],
+                             context=lambda: models_from(out), data=val, **scale.calibration, threads=threads,
+                             out=out)],
+        "attributes": [step("attributes", train_attributes_command, ["po3d", "train", "attributes"],
+                            data=sets("attributes"), seed=seed, **scale.attributes, threads=threads,
+                            eval_data=held, out=out)],
+        "viewpoint": [step("viewpoint", train_viewpoint_command, ["po3d", "train", "viewpoint"],
+                           data=sets("viewpoint"), seed=seed, **scale.viewpoint, threads=threads, eval_data=held,
+                           out=out)],
+        "priors": [step("priors", train_priors, ["po3d", "train", "priors"], data=sets("priors")[0], split="train",
+                        out=out / PRIORS_FILE)],
+    }
+    return steps
+
+
+def datasets_needed(scale: Scale, stages: list[str]) -> list[DatasetSpec]:
+    """The datasets the selected stages read (all of them for the datasets stage itself)."""
+    if "datasets" in stages:
+        return list(scale.datasets)
+    names = set()
+    for stage in stages:
+        names |= set(scale.train_sets.get(stage, ()))
+        if stage == "calibration" or (scale.evaluate and stage in ("perception", "attributes", "viewpoint")):
+            names.add(scale.val)
+    return [d for d in scale.datasets if d.name in names]
+
+
+def check_prerequisites(stages: list[str], out: Path, command: str) -> None:
+    """A typed error naming the stage to run first when a selected stage reads a model that is not in ``out``
+    and is not made by a stage that runs before it."""
+    from po3d_ppl.errors import InputError, ModelFileError
+    from po3d_ppl.model_store import MANIFEST, model_files
+
+    for stage in stages:
+        for name in _NEEDS_MODELS.get(stage, ()):
+            maker, what = _MODELS[name]
+            if maker in stages and stages.index(maker) < stages.index(stage):
+                continue
+            try:
+                model_files(name, out)
+            except ModelFileError as exc:
+                raise InputError("--stages", f"stage {stage!r} needs the {what} of stage {maker!r}, which "
+                                             f"{out / MANIFEST} does not hold ({exc}); run stage {maker!r} first: "
+                                             f"{command} --stages {maker}") from None
+
+
+def _cpu_seconds() -> float:
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
+def _read_report(path: Path) -> dict:
+    try:
+        report = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return {}
+    return report if isinstance(report, dict) and isinstance(report.get("stages"), dict) else {}
+
+
+def train_all(data: Path, out: Path, *, seed: int = 0, scale: str = "full", stages: list[str] | None = None,
+              threads: int = 1, console=None) -> dict:
+    """Run ``stages`` (default: all, in :data:`STAGES` order) at ``scale``; return the report also written to
+    ``out/train_all.json``. Datasets the stages read are built first when ``data`` lacks them."""
+    import torch
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from po3d_ppl.cli._common import check_seed
+    from po3d_ppl.errors import InputError, UnknownNameError
+
+    check_seed(seed)
+    if scale not in SCALES:
+        raise UnknownNameError("scale", scale, SCALES, "pass --scale full or --scale tiny")
+    if threads < 1:
+        raise InputError("--threads", f"must be at least 1, got {threads}")
+    chosen = list(STAGES) if not stages else stages
+    for name in chosen:
+        if name not in STAGES:
+            raise UnknownNameError("stage", name, STAGES, f"--stages takes a comma-separated subset of "
+                                                          f"{','.join(STAGES)}")
+    spec = SCALES[scale]
+    data, out = Path(data), Path(out)
+    if data.exists() and not data.is_dir():
+        raise InputError("--data", f"{data} exists and is not a directory")
+    if out.exists() and not out.is_dir():
+        raise InputError("--out", f"{out} exists and is not a directory")
+    assert all(d.seed != TEST_SEED for d in spec.datasets), "the held-out test seed is never trained on"
+    base = ["po3d", "train", "all", "--data", str(data), "--out", str(out), "--seed", str(seed), "--scale", scale,
+            "--threads", str(threads)]
+    # the datasets stage runs whenever a selected stage reads a dataset (building only what is missing)
+    needed = datasets_needed(spec, chosen)
+    run = [s for s in STAGES if s in chosen or (s == "datasets" and needed)]
+    check_prerequisites(run, out, shlex.join(base))
+    steps = plan(spec, data, out, seed, threads)
+    steps["datasets"] = [s for s in steps["datasets"] if s.kwargs["out"].name in {d.name for d in needed}]
+
+    console = console or Console()
+    torch.set_num_threads(threads)
+    out.mkdir(parents=True, exist_ok=True)
+    report_path = out / REPORT
+    report = _read_report(report_path)
+    recorded = report.get("stages", {})
+    started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+    for number, stage in enumerate(run, 1):
+        console.rule(f"[bold]{number}/{len(run)} {stage}[/]: {_DESCRIPTIONS[stage]}", style="cyan")
+        stage_start, stage_cpu = time.perf_counter(), _cpu_seconds()
+        parts = []
+        for step in steps[stage]:
+            console.print("$ " + shlex.join(step.words), markup=False, highlight=False, style="dim", soft_wrap=True)
+            start, cpu = time.perf_counter(), _cpu_seconds()
+            with step.context():
+                if step.bar:
+                    with Progress(TextColumn(f"[bold]{step.label}"), BarColumn(), TimeElapsedColumn(),
+                                  console=console) as bar:
+                        bar.add_task(step.label, total=None)
+                        invoke(step.fn, **step.kwargs)
+                else:
+                    invoke(step.fn, **step.kwargs)
+            parts.append({"step": step.label, "command": shlex.join(step.words),
+                          "seconds": round(time.perf_counter() - start, 1),
+                          "cpu_seconds": round(_cpu_seconds() - cpu, 1)})
+        recorded[stage] = {"seconds": round(time.perf_counter() - stage_start, 1),
+                           "cpu_seconds": round(_cpu_seconds() - stage_cpu, 1), "scale": scale,
+                           "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "steps": parts,
+                           "outputs": _outputs(stage, steps[stage], out)}
+        # written after every stage, so an interrupted chain keeps the timings of what it finished
+        report = {"command": shlex.join(base + ["--stages", ",".join(run)]), "scale": scale, "seed": seed,
+                  "threads": threads, "data": str(data), "out": str(out), "started": started,
+                  "cpu_count": os.cpu_count(), "device": "cpu",
+                  "stages": {s: recorded[s] for s in STAGES if s in recorded}}
+        report["total_seconds"] = round(sum(s["seconds"] for s in report["stages"].values()), 1)
+        report["total_cpu_seconds"] = round(sum(s["cpu_seconds"] for s in report["stages"].values()), 1)
+        _write_json(report_path, report)
+    print_report(report, console, ran=run)
+    console.print(f"report -> {report_path}", markup=False, highlight=False)
+    return report
+
+
+def _outputs(stage: str, steps: list[Step], out: Path) -> list[str]:
+    if stage == "datasets":
+        return [str(s.kwargs["out"]) for s in steps]
+    if stage == "priors":
+        return [str(out / PRIORS_FILE)]
+    from po3d_ppl.model_store import read_manifest
+
+    manifest = read_manifest(out)
+    return sorted(f for name, (maker, _) in _MODELS.items() if maker == stage
+                  for f in manifest.get(name, {}).get("files", {}))
+
+
+def _write_json(path: Path, value: dict) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(json.dumps(value, indent=1) + "\n")
+    os.replace(tmp, path)
+
+
+def print_report(report: dict, console, ran: list[str] | None = None) -> None:
+    """The per-stage timing table (stages from an earlier run of the report are marked)."""
+    from rich.table import Table
+
+    from po3d_ppl.cli._common import literal
+
+    table = Table(title=literal(f"po3d train all --scale {report['scale']}: {report['out']}"),
+                  caption=f"{report.get('threads', 1)} torch thread(s) on {report.get('cpu_count')} CPU core(s)")
+    for column in ("stage", "seconds", "CPU seconds", "outputs"):
+        table.add_column(column, justify="right" if "seconds" in column else "left")
+    for stage, row in report["stages"].items():
+        note = "" if ran is None or stage in ran else " (earlier run)"
+        outputs = ", ".join(Path(o).name for o in row.get("outputs", []))
+        table.add_row(literal(stage + note), f"{row['seconds']:.1f}", f"{row['cpu_seconds']:.1f}", literal(outputs))
+    table.add_row("total", f"{report['total_seconds']:.1f}", f"{report['total_cpu_seconds']:.1f}", "",
+                  style="bold")
+    console.print(table)
+
+
+def train_all_command(
+    data: Annotated[Path, typer.Option(
+        "--data", help="Root of the datasets (DATA/train_s711, DATA/val_s712 ...); built first where missing.")],
+    out: Annotated[Path | None, typer.Option(
+        "--out", help="Where to write every model, the manifest, priors.json and train_all.json "
+                      "(default: models/; --scale tiny needs another directory).")] = None,
+    seed: Annotated[int, typer.Option("--seed", help="Training seed of every stage (dataset seeds are fixed).")] = 0,
+    scale: Annotated[str, typer.Option(
+        "--scale", help="full: the shipped models' settings (models/manifest.json); tiny: a few scenes and steps "
+                        "a stage (CI).")] = "full",
+    stages: Annotated[str | None, typer.Option(
+        "--stages", help=f"Comma-separated subset of {','.join(STAGES)} (default: all); later stages read earlier "
+                         "ones' models from --out.")] = None,
+    threads: Annotated[int, typer.Option("--threads", min=1, help="torch CPU threads of every stage.")] = 1,
+) -> None:
+    """Train every model in dependency order (datasets, parser, perception, background, calibration, attributes,
+    viewpoint, priors) with a progress bar on each stage, and report the seconds each took."""
+    from po3d_ppl.errors import InputError
+    from po3d_ppl.model_store import models_dir
+
+    shipped = models_dir().resolve()
+    if out is None:
+        if scale == "tiny":
+            raise InputError("--out", "--scale tiny trains toy models; give an --out directory other than the "
+                                      f"shipped {shipped}")
+        out = shipped
+    elif scale == "tiny" and out.resolve() == shipped:
+        raise InputError("--out", f"--scale tiny would overwrite the shipped models in {shipped}; give another "
+                                  "directory")
+    chosen = [s.strip() for s in stages.split(",") if s.strip()] if stages else None
+    if stages is not None and not chosen:
+        raise InputError("--stages", f"name at least one stage of {','.join(STAGES)}")
+    train_all(data, out, seed=seed, scale=scale, stages=chosen, threads=threads)
+
+
+def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:
+    train_app.command("all")(train_all_command)

@@ -1,0 +1,170 @@
+"""``po3d train all``: the whole training chain at ``--scale tiny`` into a temporary directory (every model in the
+manifest with its sha256, the per-stage timing report), prerequisites as typed errors naming the stage to run first,
+and ``--scale full`` against the commands recorded in models/manifest.json."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import shlex
+import sys
+
+import pytest
+from typer.testing import CliRunner
+
+from po3d_ppl.cli import app, main
+from po3d_ppl.cli.train_all import FULL, PRIORS_FILE, REPORT, SCALES, STAGES, TEST_SEED, TINY, plan
+from po3d_ppl.model_store import models_dir, read_manifest, sha256_file
+
+#: every model the chain writes (manifest name -> files)
+MODELS = {
+    "question_parser": ("question_parser.safetensors", "question_parser.vocab.json"),
+    "perception_features": ("perception_features.safetensors",),
+    "background": ("background.safetensors",),
+    "object_calibration": ("object_calibration.safetensors",),
+    "attributes": ("attributes.safetensors",),
+    "viewpoint": ("viewpoint.safetensors",),
+}
+
+
+@pytest.fixture(scope="module")
+def tiny_chain(tmp_path_factory, torch_one_thread):
+    root = tmp_path_factory.mktemp("train_all")
+    data, out = root / "data", root / "models"
+    result = CliRunner().invoke(app, ["train", "all", "--data", str(data), "--out", str(out), "--scale", "tiny",
+                                      "--seed", "0", "--threads", "1"])
+    assert result.exit_code == 0, (result.output, result.exception)
+    return data, out, result.output
+
+
+@pytest.mark.slow
+def test_tiny_chain_writes_every_model_with_its_sha256(tiny_chain):
+    data, out, _ = tiny_chain
+    manifest = read_manifest(out)
+    assert set(MODELS) <= set(manifest)
+    for name, files in MODELS.items():
+        entry = manifest[name]
+        assert set(entry["files"]) == set(files), name
+        for filename in files:
+            assert entry["files"][filename]["sha256"] == sha256_file(out / filename), filename
+        assert entry["command"].startswith("po3d train "), name
+    priors = json.loads((out / PRIORS_FILE).read_text())
+    assert priors["split"] == "train" and priors["scenes"] > 0
+    assert sorted(p.name for p in data.iterdir() if p.name != "attribute_crops") == sorted(d.name for d in
+                                                                                         TINY.datasets)
+    assert all(json.loads((data / d.name / "manifest.json").read_text())["seed"] == d.seed for d in TINY.datasets)
+
+
+@pytest.mark.slow
+def test_tiny_chain_reports_every_stage_with_seconds(tiny_chain):
+    _, out, output = tiny_chain
+    report = json.loads((out / REPORT).read_text())
+    assert list(report["stages"]) == list(STAGES)
+    for stage, row in report["stages"].items():
+        assert isinstance(row["seconds"], float | int) and row["seconds"] >= 0, stage
+        assert row["cpu_seconds"] >= 0 and row["steps"], stage
+        assert all(step["command"].startswith("po3d ") for step in row["steps"]), stage
+    assert report["total_seconds"] == pytest.approx(sum(r["seconds"] for r in report["stages"].values()), abs=0.2)
+    assert report["scale"] == "tiny" and report["threads"] == 1
+    for stage in STAGES:  # the printed table
+        assert stage in output
+    assert "total" in output and REPORT in output
+
+
+@pytest.mark.slow
+def test_a_stage_alone_reads_the_earlier_ones_from_out_and_keeps_their_timings(tiny_chain, monkeypatch, capsys):
+    data, out, _ = tiny_chain
+    before = json.loads((out / REPORT).read_text())["stages"]["perception"]
+    code, stdout, err = run_main(monkeypatch, capsys, "train", "all", "--data", str(data), "--out", str(out),
+                                 "--scale", "tiny", "--stages", "calibration")
+    assert code == 0, err
+    report = json.loads((out / REPORT).read_text())
+    assert list(report["stages"]) == list(STAGES)  # earlier stages' timings are kept
+    assert report["stages"]["perception"] == before
+    assert report["stages"]["calibration"]["outputs"] == ["object_calibration.safetensors"]
+    assert "(earlier run)" in stdout and "$ po3d train calibration" in stdout
+
+
+def run_main(monkeypatch, capsys, *args: str) -> tuple[int, str, str]:
+    """(exit code, stdout, stderr) of ``po3d ARGS`` run by the real entry point, in this process."""
+    monkeypatch.setattr(sys, "argv", ["po3d", *args])
+    with pytest.raises(SystemExit) as stopped:
+        main()
+    out = capsys.readouterr()
+    return stopped.value.code or 0, out.out, out.err
+
+
+def test_calibration_on_an_empty_out_names_the_features_stage(monkeypatch, capsys, tmp_path):
+    data = tmp_path / "data"
+    code, _, err = run_main(monkeypatch, capsys, "train", "all", "--data", str(data), "--out",
+                            str(tmp_path / "out"), "--scale", "tiny", "--stages", "calibration")
+    assert code == 2 and "Traceback" not in err and err.startswith("error: --stages") and err.count("\n") == 1, err
+    assert "'calibration' needs the perception features of stage 'perception'" in err
+    assert "--stages perception" in err
+    assert not data.exists()  # checked before anything is built
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["--stages", "parser,features"], "unknown stage 'features'"),
+    (["--scale", "huge"], "unknown scale 'huge'"),
+    (["--seed", "-1"], "--seed"),
+])
+def test_bad_options_are_one_line_errors(monkeypatch, capsys, tmp_path, args, fragment):
+    code, _, err = run_main(monkeypatch, capsys, "train", "all", "--data", str(tmp_path / "d"), "--out",
+                            str(tmp_path / "o"), *args)
+    assert code == 2 and err.startswith("error: ") and err.count("\n") == 1 and fragment in err, err
+
+
+def test_tiny_never_writes_into_the_shipped_models(monkeypatch, capsys, tmp_path):
+    for out in ([], ["--out", str(models_dir())]):
+        code, _, err = run_main(monkeypatch, capsys, "train", "all", "--data", str(tmp_path), "--scale", "tiny",
+                                *out)
+        assert code == 2 and "--out" in err, err
+
+
+def test_no_scale_uses_the_held_out_test_seed():
+    for scale in SCALES.values():
+        assert TEST_SEED not in {d.seed for d in scale.datasets}
+
+
+def _options(words: list[str]) -> dict[str, str]:
+    """Option -> value of a command line (paths and directories left out)."""
+    skip = {"--data", "--out", "--eval-data", "--model-dir", "--cache"}
+    options, i = {}, 0
+    while i < len(words):
+        if words[i].startswith("--") and i + 1 < len(words) and not words[i + 1].startswith("--"):
+            if words[i] not in skip:
+                options[words[i]] = words[i + 1]
+            i += 2
+        else:
+            i += 1
+    return options
+
+
+def test_full_scale_repeats_the_shipped_commands(tmp_path):
+    """Every option of each shipped model's recorded command has the same value in the chain's full plan."""
+    shipped = read_manifest()
+    steps = plan(FULL, tmp_path / "data", tmp_path / "out", seed=0, threads=1)
+    ours = {step.label: step.words for stage in steps.values() for step in stage}
+    recorded = {"parser": shipped["question_parser"]["command"],
+                "parser calibration": shipped["question_parser"]["calibration_command"],
+                "perception": shipped["perception_features"]["command"],
+                "background": shipped["background"]["command"],
+                "calibration": shipped["object_calibration"]["command"],
+                "attributes": shipped["attributes"]["command"],
+                "viewpoint": shipped["viewpoint"]["command"]}
+    for label, command in recorded.items():
+        words = shlex.split(command)
+        assert words[:3] == ours[label][:3], label
+        expected, got = _options(words), _options(ours[label])
+        assert {k: got.get(k) for k in expected} == expected, label
+        # as many training datasets
+        datasets = [w for k, w in itertools.pairwise(words) if k == "--data"]
+        assert len(datasets) == len([w for k, w in itertools.pairwise(ours[label]) if k == "--data"]), label
+    built = {(d.seed, d.scenes) for d in FULL.datasets}
+    recorded_builds = set()
+    for entry in shipped.values():
+        for command in entry.get("data_commands", []):
+            words = _options(shlex.split(command))
+            recorded_builds.add((int(words["--seed"]), int(words["--scenes"])))
+    assert built <= recorded_builds
