@@ -18,16 +18,23 @@ _LIMIT = typer.Option(None, "--limit", min=1, help="Only the first N images.")
 _THREADS = typer.Option(1, "--threads", min=1, help="torch CPU threads (one is fastest on a busy 2-core machine).")
 
 
-def _parse_all(data: Path, split, limit, calibration, console, label: str):
+def _parse_all(data: Path, split, limit, calibration, console, label: str, model_dir: Path | None = None):
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
     from po3d_ppl.evaluation.objects import parse_dataset
     from po3d_ppl.perception.object_parser import parse_objects
 
+    model = background = None
+    if model_dir is not None:  # the models being trained, not the shipped ones
+        from po3d_ppl.perception.background import load_background
+        from po3d_ppl.perception.neural_mesh import load_feature_model
+
+        model, background = load_feature_model(model_dir), load_background(model_dir)
     with Progress(TextColumn(f"[bold]{label}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
                   console=console) as bar:
         task = bar.add_task(label, total=None)
-        return parse_dataset(data, split, limit, lambda image: parse_objects(image, calibration=calibration),
+        return parse_dataset(data, split, limit,
+                             lambda image: parse_objects(image, model, calibration=calibration, background=background),
                              progress=lambda done, total: bar.update(task, completed=done, total=total))
 
 
@@ -45,6 +52,8 @@ def train_calibration_command(
     data: Path = _DATA, split: str = _SPLIT, limit: int = _LIMIT, threads: int = _THREADS,
     out: Path = typer.Option(None, "--out", help="Where to write the calibration (default: models/)."),
     outcomes: Path = typer.Option(None, "--outcomes", help="Also write the per-image outcomes (JSON lines)."),
+    model_dir: Path = typer.Option(None, "--model-dir", help="Feature and background models to calibrate "
+                                                             "(default: the shipped models/)."),
 ) -> None:
     """Fit the object parser's category and pose temperatures and its existence scale (Platt) on a validation
     dataset; write models/object_calibration.safetensors with its manifest entry."""
@@ -57,7 +66,7 @@ def train_calibration_command(
 
     torch.set_num_threads(threads)
     console = Console()
-    results = _parse_all(data, split, limit, TableCalibration(), console, "parse (raw scores)")
+    results = _parse_all(data, split, limit, TableCalibration(), console, "parse (raw scores)", model_dir)
     if outcomes is not None:
         save_outcomes(results, outcomes)
     calibration, report = fit_calibration(results)
@@ -67,6 +76,7 @@ def train_calibration_command(
     words += ["--split", split] if split else []
     words += ["--limit", str(limit)] if limit else []
     words += ["--out", str(out)] if out is not None else []
+    words += ["--model-dir", str(model_dir)] if model_dir is not None else []
     _record(MODEL_NAME, calibration.save(directory), directory, data, words, values=calibration.to_dict(),
             metrics=report)
     console.print_json(json.dumps({"calibration": calibration.to_dict(), **report}))

@@ -16,13 +16,12 @@ Register with ``"train_all"`` in ``po3d_ppl.cli._MODULES``.
 
 from __future__ import annotations
 
-import contextlib
 import inspect
 import json
 import os
 import shlex
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
@@ -141,7 +140,6 @@ class Step:
     kwargs: dict[str, Any]
     words: list[str]
     bar: bool = False  # the command has no progress bar of its own: show one around it
-    context: Callable[[], contextlib.AbstractContextManager] = contextlib.nullcontext
 
 
 def invoke(fn: Callable[..., Any], **kwargs: Any) -> Any:
@@ -184,24 +182,6 @@ def command_words(prefix: list[str], kwargs: dict[str, Any]) -> list[str]:
     return words
 
 
-@contextlib.contextmanager
-def models_from(directory: Path) -> Iterator[None]:
-    """The object parser reads its feature model and background model from ``directory`` instead of the shipped
-    models/ (``parse_objects`` takes the feature model as an argument but the background only from its default;
-    both defaults are swapped here and restored afterwards)."""
-    from po3d_ppl.perception import object_parser
-    from po3d_ppl.perception.background import load_background
-    from po3d_ppl.perception.neural_mesh import load_feature_model
-
-    model, background = load_feature_model(directory), load_background(directory)
-    saved = object_parser._default_model, object_parser._default_background
-    object_parser._default_model, object_parser._default_background = (lambda: model), (lambda: background)
-    try:
-        yield
-    finally:
-        object_parser._default_model, object_parser._default_background = saved
-
-
 def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[str, list[Step]]:
     """Every stage's steps for ``scale``, datasets under ``data``, models into ``out``."""
     from po3d_ppl.cli.attributes import train_attributes_command
@@ -221,8 +201,8 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
     val = path(scale.val)
     held = val if scale.evaluate else None
 
-    def step(label: str, fn, prefix: list[str], bar: bool = False, context=contextlib.nullcontext, **kwargs):
-        return Step(label, fn, kwargs, command_words(prefix, kwargs), bar, context)
+    def step(label: str, fn, prefix: list[str], bar: bool = False, **kwargs):
+        return Step(label, fn, kwargs, command_words(prefix, kwargs), bar)
 
     steps: dict[str, list[Step]] = {
         "datasets": [step(f"dataset {d.name}", build, ["po3d", "dataset", "build"], out=path(d.name),
@@ -237,8 +217,7 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
         "background": [step("background", train_background_command, ["po3d", "train", "background"],
                             data=sets("background")[0], **scale.background, out=out)],
         "calibration": [step("calibration", train_calibration_command, ["po3d", "train", "calibration"],
-                             context=lambda: models_from(out), data=val, **scale.calibration, threads=threads,
-                             out=out)],
+                             data=val, **scale.calibration, threads=threads, out=out, model_dir=out)],
         "attributes": [step("attributes", train_attributes_command, ["po3d", "train", "attributes"],
                             data=sets("attributes"), seed=seed, **scale.attributes, threads=threads,
                             eval_data=held, out=out)],
@@ -346,14 +325,13 @@ def train_all(data: Path, out: Path, *, seed: int = 0, scale: str = "full", stag
         for step in steps[stage]:
             console.print("$ " + shlex.join(step.words), markup=False, highlight=False, style="dim", soft_wrap=True)
             start, cpu = time.perf_counter(), _cpu_seconds()
-            with step.context():
-                if step.bar:
-                    with Progress(TextColumn(f"[bold]{step.label}"), BarColumn(), TimeElapsedColumn(),
-                                  console=console) as bar:
-                        bar.add_task(step.label, total=None)
-                        invoke(step.fn, **step.kwargs)
-                else:
+            if step.bar:
+                with Progress(TextColumn(f"[bold]{step.label}"), BarColumn(), TimeElapsedColumn(),
+                              console=console) as bar:
+                    bar.add_task(step.label, total=None)
                     invoke(step.fn, **step.kwargs)
+            else:
+                invoke(step.fn, **step.kwargs)
             parts.append({"step": step.label, "command": shlex.join(step.words),
                           "seconds": round(time.perf_counter() - start, 1),
                           "cpu_seconds": round(_cpu_seconds() - cpu, 1)})

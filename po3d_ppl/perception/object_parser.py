@@ -776,14 +776,19 @@ def _boxes(masks: torch.Tensor) -> torch.Tensor:
 
 
 def parse_objects(image, model: FeatureModel | None = None, config: ParserConfig | None = None,
-                  calibration: TableCalibration | None = None) -> ObjectProposals:
+                  calibration: TableCalibration | None = None, background: BackgroundModel | None = None
+                  ) -> ObjectProposals:
     """Detect, classify and pose every object of ``image`` (anything :func:`load_image` reads) by coarse
     render-and-compare search and depth-ordered 3D-NMS. Reads pixels only (the camera is the prior's base).
-    ``calibration`` rescales the tables (default: the shipped fit; ``TableCalibration()`` gives raw scores)."""
+    ``calibration`` rescales the tables (default: the shipped fit; ``TableCalibration()`` gives raw scores);
+    ``model`` and ``background`` default to the shipped ones (the background only if ``config.use_background``)."""
     config = config or ParserConfig()
     model = model or _default_model()
     calibration = calibration if calibration is not None else _default_calibration()
-    background = _default_background() if config.use_background else None
+    if not config.use_background:
+        background = None
+    elif background is None:
+        background = _default_background()
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     img = load_image(image)
