@@ -149,50 +149,94 @@ def train_background_command(
                   markup=False, highlight=False)
 
 
-def eval_evidence_command(
-    data: Path = _DATA, split: str = typer.Option("all", "--split", help="Split of --data (all: every image)."),
-    limit: int = _LIMIT, threads: int = _THREADS,
-    cache: Path = typer.Option(None, "--cache", help="Evidence cache directory (shared with `po3d eval vqa "
-                                                     "--perception image`; default: DATA/eval_cache)."),
-    json_out: Path = typer.Option(None, "--json", help="Write the figures here."),
-) -> None:
-    """Perception's evidence against ground truth: attributes, parts and occlusion (evaluation.evidence_scores)
-    and the object figures under the scene parser's camera, from the same cached evidence `po3d eval vqa
-    --perception image` uses (each image is parsed once)."""
-    import torch
-    from rich.console import Console
+def _cached_evidence(data: Path, split: str, limit: int | None, cache: Path | None, backend, console, label: str):
+    """(evidence, scene) of every image of ``split``, each parsed once into the evidence cache (the cache
+    `po3d eval vqa --perception image` shares; default DATA/eval_cache)."""
     from rich.progress import track
 
-    from po3d_ppl.evaluation.backends import ImageBackend, Observation
+    from po3d_ppl.evaluation.backends import Observation
     from po3d_ppl.evaluation.cache import EvidenceCache
-    from po3d_ppl.evaluation.evidence_scores import EvidenceCounts
-    from po3d_ppl.evaluation.objects import EvidenceAsProposals, score_image, summarise
     from po3d_ppl.questions.dataset import load_dataset
 
-    torch.set_num_threads(threads)
-    console = Console()
     dataset = load_dataset(data)
     indices = dataset.split_indices(split)
     indices = indices[:limit] if limit else indices
-    backend = ImageBackend()
     store = EvidenceCache(cache if cache is not None else Path(data) / "eval_cache")
-    counts, outcomes = EvidenceCounts(), []
-    for index in track(indices, description="evidence", console=console):
-        scene = dataset.scene(index)
-        observation = Observation(index, dataset.image_path(index), scene)
-        evidence = store.get(observation.image_path, backend.identity(),
-                             lambda seen=observation: backend.evidence(seen))
+    identity = backend.identity()
+    for index in track(indices, description=label, console=console):
+        observation = Observation(index, dataset.image_path(index), dataset.scene(index))
+        yield store.get(observation.image_path, identity, lambda seen=observation: backend.evidence(seen)), \
+            observation.scene
+
+
+_CACHE = typer.Option(None, "--cache", help="Evidence cache directory (shared with `po3d eval vqa --perception "
+                                            "image`; default: DATA/eval_cache).")
+
+
+def eval_evidence_command(
+    data: Path = _DATA, split: str = typer.Option("all", "--split", help="Split of --data (all: every image)."),
+    limit: int = _LIMIT, threads: int = _THREADS, cache: Path = _CACHE,
+    json_out: Path = typer.Option(None, "--json", help="Write the figures here."),
+) -> None:
+    """Perception's evidence against ground truth: attributes, parts and occlusion (evaluation.evidence_scores),
+    the projected tables' calibration, and the object figures under the scene parser's camera, from the same
+    cached evidence `po3d eval vqa --perception image` uses (each image is parsed once)."""
+    import torch
+    from rich.console import Console
+
+    from po3d_ppl.evaluation.backends import ImageBackend
+    from po3d_ppl.evaluation.evidence_scores import EvidenceCounts
+    from po3d_ppl.evaluation.objects import EvidenceAsProposals, score_image, summarise
+    from po3d_ppl.evaluation.projection import collect, measure
+
+    torch.set_num_threads(threads)
+    console = Console()
+    counts, outcomes, seen = EvidenceCounts(), [], []
+    for evidence, scene in _cached_evidence(data, split, limit, cache, ImageBackend(), console, "evidence"):
         counts.add(evidence, scene)
         outcomes.append(score_image(EvidenceAsProposals.of(evidence), scene, scene.image_filename, 0.0))
+        seen.append((evidence, scene))
     figures = {"evidence": counts.figures(), "objects": summarise(outcomes),
-               "cache": {"hits": store.hits, "misses": store.misses}}
+               "projected_tables": measure(None, collect(seen))}
     if json_out is not None:
         Path(json_out).write_text(json.dumps(figures, indent=1) + "\n")
     console.print_json(json.dumps(figures))
 
 
+def train_projection_command(
+    data: Path = _DATA, split: str = typer.Option("all", "--split", help="Split of --data (all: every image)."),
+    limit: int = _LIMIT, threads: int = _THREADS, cache: Path = _CACHE,
+    out: Path = typer.Option(None, "--out", help="Where to write the calibration (default: models/)."),
+) -> None:
+    """Fit one Platt scaling per projected table (occlusion, occluders, part visibility, part occlusion) on a
+    validation dataset's raw evidence; write models/projection_calibration.safetensors with its manifest entry
+    and each table's ECE before and after."""
+    import torch
+    from rich.console import Console
+
+    from po3d_ppl.evaluation.backends import ImageBackend
+    from po3d_ppl.evaluation.projection import collect, fit_projection_calibration
+    from po3d_ppl.model_store import models_dir
+    from po3d_ppl.perception.projection_calibration import MODEL_NAME
+
+    torch.set_num_threads(threads)
+    console = Console()
+    raw = ImageBackend(calibrated_projection=False)
+    calibration, report = fit_projection_calibration(collect(
+        _cached_evidence(data, split, limit, cache, raw, console, "evidence (raw projected tables)")))
+    directory = Path(out) if out is not None else models_dir()
+    directory.mkdir(parents=True, exist_ok=True)
+    words = ["po3d", "train", "projection", "--data", str(data), "--split", split, "--threads", str(threads)]
+    words += ["--limit", str(limit)] if limit else []
+    words += ["--out", str(out)] if out is not None else []
+    _record(MODEL_NAME, calibration.save(directory), directory, data, words, values=calibration.to_dict(),
+            metrics=report)
+    console.print_json(json.dumps({"platt": calibration.to_dict(), "tables": report}))
+
+
 def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:
     eval_app.command("evidence")(eval_evidence_command)
+    train_app.command("projection")(train_projection_command)
     train_app.command("calibration")(train_calibration_command)
     train_app.command("background")(train_background_command)
     eval_app.command("objects")(eval_objects_command)

@@ -82,9 +82,11 @@ class ImageBackend:
     """The render-and-compare parser (:func:`po3d_ppl.perception.scene_parser.parse_scene`) on each image's
     pixels; it never reads ``observation.scene``. Its identity holds the shipped models' sha256 and every
     setting, so retraining or retuning never reads stale cached evidence. Visible masks are dropped from the
-    evidence it returns (reasoning never reads them, and they would dominate the cache: 0.3 MB per object)."""
+    evidence it returns (reasoning never reads them, and they would dominate the cache: 0.3 MB per object).
+    ``calibrated_projection=False`` leaves the projected tables raw (what their calibration is fitted on)."""
 
     name: str = "image"
+    calibrated_projection: bool = True
 
     def _settings(self) -> dict[str, Any]:
         from dataclasses import asdict
@@ -97,10 +99,11 @@ class ImageBackend:
     def identity(self) -> dict[str, Any]:
         from po3d_ppl.model_store import read_manifest
 
+        used = ("perception_features", "object_calibration", "background", "attributes", "viewpoint")
+        used += ("projection_calibration",) if self.calibrated_projection else ()
         manifest = read_manifest()
         models = {name: {f: meta["sha256"] for f, meta in entry.get("files", {}).items()}
-                  for name, entry in manifest.items()
-                  if name in ("perception_features", "object_calibration", "background", "attributes", "viewpoint")}
+                  for name, entry in manifest.items() if name in used}
         return {"name": self.name, "models": models, "settings": self._settings()}
 
     def evidence(self, observation: Observation) -> SceneEvidence:
@@ -112,6 +115,9 @@ class ImageBackend:
     @cached_property
     def parser(self):
         """The shipped models, loaded once per back-end."""
+        import dataclasses
+
         from po3d_ppl.perception.scene_parser import ImageParser
 
-        return ImageParser.load()
+        parser = ImageParser.load()
+        return parser if self.calibrated_projection else dataclasses.replace(parser, projection_calibration=None)

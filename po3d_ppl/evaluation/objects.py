@@ -226,10 +226,13 @@ def summarise(outcomes: Sequence[ImageOutcome], min_pixels: int = 200, occluded_
     return figures
 
 
-def fit_platt(scores: torch.Tensor, labels: torch.Tensor) -> tuple[float, float]:
-    """(a, b) of ``sigmoid(a * score + b)`` minimising the NLL of ``labels`` (LBFGS; a kept > 0)."""
+def fit_platt(scores: torch.Tensor, labels: torch.Tensor, unit: float = 100.0, what: str = "existence",
+              ) -> tuple[float, float]:
+    """(a, b) of ``sigmoid(a * score + b)`` minimising the NLL of ``labels`` (LBFGS; a kept > 0). ``unit`` is the
+    scores' typical size (raw render-and-compare scores: 100; log-odds: 1), so the optimiser starts near a = 1 /
+    unit."""
     if scores.numel() == 0 or labels.all() or not labels.any():
-        raise InputError("existence", "Platt scaling needs both real and spurious proposals in the validation set")
+        raise InputError(what, "Platt scaling needs both outcomes (true and false) in the validation set")
     x, y = scores.double(), labels.double()
     log_a = torch.zeros((), dtype=torch.float64, requires_grad=True)
     b = torch.zeros((), dtype=torch.float64, requires_grad=True)
@@ -237,12 +240,12 @@ def fit_platt(scores: torch.Tensor, labels: torch.Tensor) -> tuple[float, float]
 
     def closure():
         opt.zero_grad()
-        loss = torch.nn.functional.binary_cross_entropy_with_logits(torch.exp(log_a) * x / 100.0 + b, y)
+        loss = torch.nn.functional.binary_cross_entropy_with_logits(torch.exp(log_a) * x / unit + b, y)
         loss.backward()
         return loss
 
     opt.step(closure)
-    return float(torch.exp(log_a.detach())) / 100.0, float(b.detach())
+    return float(torch.exp(log_a.detach())) / unit, float(b.detach())
 
 
 def fit_calibration(outcomes: Sequence[ImageOutcome], min_pixels: int = 200):

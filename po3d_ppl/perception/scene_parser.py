@@ -45,6 +45,7 @@ from po3d_ppl.world.scene import Camera
 
 if TYPE_CHECKING:
     from po3d_ppl.perception.attributes import AttributeNet
+    from po3d_ppl.perception.projection_calibration import ProjectionCalibration
     from po3d_ppl.perception.viewpoint import ViewpointNet
 
 CATEGORIES = tuple(ontology.CATEGORIES)
@@ -174,12 +175,13 @@ def _subtype_weights(subtype_loglik: torch.Tensor, config: SceneParserConfig) ->
 
 
 def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = None,
-                viewpoint: ViewpointNet | None = None, config: SceneParserConfig | None = None,
-                parser_config=None) -> ParsedScene:
+                viewpoint: ViewpointNet | None = None, projection_calibration: ProjectionCalibration | None = None,
+                config: SceneParserConfig | None = None, parser_config=None) -> ParsedScene:
     """Read ``image`` (a path, HWC array or PIL image) into :class:`SceneEvidence` with every table filled from
     pixels. An image without vehicles gives empty evidence (N = 0), which reasoning answers (count 0, ...).
     ``viewpoint`` (optional) sharpens the pose table with a whole-object azimuth reading before the parts are
-    projected (:mod:`po3d_ppl.perception.viewpoint`)."""
+    projected (:mod:`po3d_ppl.perception.viewpoint`); ``projection_calibration`` rescales the projected tables
+    (:mod:`po3d_ppl.perception.projection_calibration`)."""
     config = config or SceneParserConfig()
     timings: dict[str, float] = {}
     start = time.perf_counter()
@@ -243,6 +245,10 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
         positions=positions, depths=depths,
         directions={k: torch.tensor(v, dtype=DTYPE) for k, v in camera.ground_directions().items()},
         boxes=proposals.boxes.to(DTYPE), masks=proposals.masks, camera=camera, **tables)
+    if projection_calibration is not None:
+        evidence = projection_calibration.apply(evidence)
+    elif n:
+        notes.append("projected tables uncalibrated (their probability floor is 0.05)")
     timings["total"] = time.perf_counter() - start
     object_ids, part_ids = best_view if best_view is not None else (None, None)
     return ParsedScene(evidence, proposals, projections, timings, tuple(notes), object_ids, part_ids)
@@ -462,13 +468,14 @@ class ImageParser:
     attributes: AttributeNet | None = None
     config: SceneParserConfig = field(default_factory=SceneParserConfig)
     viewpoint: ViewpointNet | None = None
+    projection_calibration: ProjectionCalibration | None = None
     name = "render-and-compare"
 
     @classmethod
     def load(cls, models_dir=None, device=None, config: SceneParserConfig | None = None) -> ImageParser:
         """The shipped models (or those of ``models_dir``), each checked against its sha256; the attribute and
-        viewpoint networks only if listed in the manifest (otherwise their tables stay uninformative, or the pose
-        table is render-and-compare's alone)."""
+        viewpoint networks and the projection calibration only if listed in the manifest (otherwise their tables
+        stay uninformative, the pose table is render-and-compare's alone, the projected tables keep their floor)."""
         from po3d_ppl.model_store import read_manifest
         from po3d_ppl.perception.neural_mesh import load_feature_model
 
@@ -483,11 +490,15 @@ class ImageParser:
             from po3d_ppl.perception.viewpoint import load_viewpoint_net
 
             viewpoint = load_viewpoint_net(models_dir, device)
-        return cls(load_feature_model(models_dir, device), attributes, config or SceneParserConfig(), viewpoint)
+        from po3d_ppl.perception.projection_calibration import load_projection_calibration
+
+        return cls(load_feature_model(models_dir, device), attributes, config or SceneParserConfig(), viewpoint,
+                   load_projection_calibration(models_dir))
 
     def parse(self, image) -> ParsedScene:
         return parse_scene(image, object_model=self.object_model, attributes=self.attributes,
-                           viewpoint=self.viewpoint, config=self.config)
+                           viewpoint=self.viewpoint, projection_calibration=self.projection_calibration,
+                           config=self.config)
 
     def evidence(self, image) -> SceneEvidence:
         return self.parse(image).evidence
