@@ -384,6 +384,56 @@ class TrainedAttributes:
     steps: int
 
 
+@dataclass
+class OneCycleRun:
+    """What :func:`train_one_cycle` did: the per-epoch mean losses, wall seconds and steps."""
+
+    history: list[dict]
+    seconds: float
+    steps: int
+
+
+def train_one_cycle(net: torch.nn.Module, config, steps_per_epoch: int,
+                    epoch: Callable[[], Callable[[int], dict[str, torch.Tensor]]],
+                    progress: Callable[[int, int, dict], None] | None = None) -> OneCycleRun:
+    """AdamW with a one-cycle schedule over ``config.epochs`` epochs (at most ``config.max_steps`` steps), shared
+    by the crop networks. ``epoch()`` starts an epoch (e.g. draws its sample order) and returns ``losses(k)``, the
+    named losses of its k-th step; their sum is minimised. The history holds each epoch's mean of every loss."""
+    total = steps_per_epoch * config.epochs
+    if config.max_steps is not None:
+        total = min(total, config.max_steps)
+    opt = torch.optim.AdamW(net.parameters(), lr=config.lr, weight_decay=config.weight_decay)
+    sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=config.lr, total_steps=total, pct_start=0.15)
+    history: list[dict] = []
+    start, step, running, count = time.perf_counter(), 0, {}, 0
+    net.train()
+    while step < total:
+        losses_of = epoch()
+        for k in range(steps_per_epoch):
+            if step >= total:
+                break
+            losses = losses_of(k)
+            loss = sum(losses.values())
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            opt.step()
+            sched.step()
+            step += 1
+            count += 1
+            for name, v in {**losses, "loss": loss}.items():
+                running[name] = running.get(name, 0.0) + float(v.detach())
+            if step % steps_per_epoch == 0 or step == total:
+                history.append({k: v / count for k, v in running.items()} |
+                               {"step": step, "epoch": step / steps_per_epoch,
+                                "seconds": round(time.perf_counter() - start, 1)})
+                running, count = {}, 0
+            if progress is not None:
+                progress(step, total, {"epoch": step / steps_per_epoch,
+                                       "loss": history[-1]["loss"] if history else float(loss.detach())})
+    net.eval()
+    return OneCycleRun(history, time.perf_counter() - start, step)
+
+
 def train_attributes(data: AttributeData, config: TrainConfig = TrainConfig(), *, device: torch.device | str = "cpu",
                      progress: Callable[[int, int, dict], None] | None = None) -> TrainedAttributes:
     """Train an :class:`AttributeNet` from scratch on ``data`` (temperatures stay 1; see :func:`calibrate`)."""
@@ -399,45 +449,15 @@ def train_attributes(data: AttributeData, config: TrainConfig = TrainConfig(), *
     g = torch.Generator().manual_seed(config.seed)
     steps_per_epoch = math.ceil(data.num_objects / config.batch_size)
     part_batch = math.ceil(config.part_fraction * data.num_parts / steps_per_epoch) if data.num_parts else 0
-    total = steps_per_epoch * config.epochs
-    if config.max_steps is not None:
-        total = min(total, config.max_steps)
-    opt = torch.optim.AdamW(net.parameters(), lr=config.lr, weight_decay=config.weight_decay)
-    sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=config.lr, total_steps=total, pct_start=0.15)
-    history: list[dict] = []
-    start, step, running, count = time.perf_counter(), 0, {}, 0
-    net.train()
-    while step < total:
+
+    def epoch() -> Callable[[int], dict[str, torch.Tensor]]:
         obj_order = torch.randperm(data.num_objects, generator=g)
         part_order = torch.randperm(data.num_parts, generator=g)
-        for k in range(steps_per_epoch):
-            if step >= total:
-                break
-            objects = obj_order[k * config.batch_size:(k + 1) * config.batch_size]
-            parts = part_order[k * part_batch:(k + 1) * part_batch]
-            losses = _losses(net, data, objects, parts, config, g, device)
-            loss = sum(losses.values())
-            opt.zero_grad(set_to_none=True)
-            loss.backward()
-            opt.step()
-            sched.step()
-            step += 1
-            count += 1
-            for name, v in losses.items():
-                running[name] = running.get(name, 0.0) + float(v.detach())
-            running["loss"] = running.get("loss", 0.0) + float(loss.detach())
-            if step % steps_per_epoch == 0 or step == total:
-                record = {k: v / count for k, v in running.items()}
-                record |= {"step": step, "epoch": step / steps_per_epoch,
-                           "seconds": round(time.perf_counter() - start, 1)}
-                history.append(record)
-                running, count = {}, 0
-            if progress is not None:
-                progress(step, total, {"epoch": step / steps_per_epoch,
-                                       "loss": history[-1]["loss"] if history else float(loss.detach())})
-    seconds = time.perf_counter() - start
-    net.eval()
-    return TrainedAttributes(net, history, seconds, seconds / max(step, 1), step)
+        return lambda k: _losses(net, data, obj_order[k * config.batch_size:(k + 1) * config.batch_size],
+                                 part_order[k * part_batch:(k + 1) * part_batch], config, g, device)
+
+    run = train_one_cycle(net, config, steps_per_epoch, epoch, progress)
+    return TrainedAttributes(net, run.history, run.seconds, run.seconds / max(run.steps, 1), run.steps)
 
 
 # --- calibration and measurement on cached crops -------------------------------------------------------------------

@@ -19,7 +19,6 @@ count, same weights.
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -39,6 +38,7 @@ from po3d_ppl.perception.train_attributes import (
     jitter_windows,
     load_split,
     split_indices,
+    train_one_cycle,
 )
 from po3d_ppl.perception.viewpoint import ViewpointConfig, ViewpointNet, soft_azimuth_targets
 
@@ -147,41 +147,14 @@ def train_viewpoint(data: ViewpointData, config: ViewpointTrainConfig = Viewpoin
     torch.manual_seed(config.seed)
     net = ViewpointNet(config.net).to(device)
     g = torch.Generator().manual_seed(config.seed)
-    steps_per_epoch = math.ceil(data.num_objects / config.batch_size)
-    total = steps_per_epoch * config.epochs
-    if config.max_steps is not None:
-        total = min(total, config.max_steps)
-    opt = torch.optim.AdamW(net.parameters(), lr=config.lr, weight_decay=config.weight_decay)
-    sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=config.lr, total_steps=total, pct_start=0.15)
-    history: list[dict] = []
-    start, step, running, count = time.perf_counter(), 0, {}, 0
-    net.train()
-    while step < total:
+
+    def epoch() -> Callable[[int], dict[str, torch.Tensor]]:
         order = torch.randperm(data.num_objects, generator=g)
-        for k in range(steps_per_epoch):
-            if step >= total:
-                break
-            losses = _losses(net, data, order[k * config.batch_size:(k + 1) * config.batch_size], config, g, device)
-            loss = sum(losses.values())
-            opt.zero_grad(set_to_none=True)
-            loss.backward()
-            opt.step()
-            sched.step()
-            step += 1
-            count += 1
-            for name, v in {**losses, "loss": loss}.items():
-                running[name] = running.get(name, 0.0) + float(v.detach())
-            if step % steps_per_epoch == 0 or step == total:
-                history.append({k: v / count for k, v in running.items()} |
-                               {"step": step, "epoch": step / steps_per_epoch,
-                                "seconds": round(time.perf_counter() - start, 1)})
-                running, count = {}, 0
-            if progress is not None:
-                progress(step, total, {"epoch": step / steps_per_epoch,
-                                       "loss": history[-1]["loss"] if history else float(loss.detach())})
-    seconds = time.perf_counter() - start
-    net.eval()
-    return TrainedViewpoint(net, history, seconds, seconds / max(step, 1), step)
+        return lambda k: _losses(net, data, order[k * config.batch_size:(k + 1) * config.batch_size], config, g,
+                                 device)
+
+    run = train_one_cycle(net, config, math.ceil(data.num_objects / config.batch_size), epoch, progress)
+    return TrainedViewpoint(net, run.history, run.seconds, run.seconds / max(run.steps, 1), run.steps)
 
 
 @torch.no_grad()
