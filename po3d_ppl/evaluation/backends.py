@@ -97,14 +97,7 @@ class ImageBackend:
         return {"object_parser": asdict(ParserConfig()), "scene_parser": asdict(SceneParserConfig())}
 
     def identity(self) -> dict[str, Any]:
-        from po3d_ppl.model_store import read_manifest
-
-        used = ("perception_features", "object_calibration", "background", "attributes", "viewpoint")
-        used += ("projection_calibration",) if self.calibrated_projection else ()
-        manifest = read_manifest()
-        models = {name: {f: meta["sha256"] for f, meta in entry.get("files", {}).items()}
-                  for name, entry in manifest.items() if name in used}
-        return {"name": self.name, "models": models, "settings": self._settings()}
+        return self._loaded[0]
 
     def evidence(self, observation: Observation) -> SceneEvidence:
         import dataclasses
@@ -112,12 +105,26 @@ class ImageBackend:
         evidence = self.parser.evidence(observation.image_path)
         return dataclasses.replace(evidence, masks=None)
 
-    @cached_property
+    @property
     def parser(self):
         """The shipped models, loaded once per back-end."""
+        return self._loaded[1]
+
+    @cached_property
+    def _loaded(self) -> tuple[dict[str, Any], Any]:
+        """(identity, parser), read together once: models swapped in models/ during a run change neither, so a
+        long evaluation never files one model's evidence under another's key."""
         import dataclasses
 
+        from po3d_ppl.model_store import read_manifest
         from po3d_ppl.perception.scene_parser import ImageParser
 
+        used = ("perception_features", "object_calibration", "background", "attributes", "viewpoint")
+        used += ("projection_calibration",) if self.calibrated_projection else ()
+        manifest = read_manifest()
+        models = {name: {f: meta["sha256"] for f, meta in entry.get("files", {}).items()}
+                  for name, entry in manifest.items() if name in used}
         parser = ImageParser.load()
-        return parser if self.calibrated_projection else dataclasses.replace(parser, projection_calibration=None)
+        if not self.calibrated_projection:
+            parser = dataclasses.replace(parser, projection_calibration=None)
+        return {"name": self.name, "models": models, "settings": self._settings()}, parser

@@ -191,11 +191,11 @@ def evaluate(dataset, split: str, backend: EvidenceBackend, methods: Sequence[st
                **{f"inference_{m}_s": 0.0 for m in methods if m != "oracle"}}
     failures = {v: 0 for v in variants_of(methods)}
     records: list[QuestionRecord] = []
+    identity = {**backend.identity(), "semantics": semantics} if public else backend.identity()
     for done, index in enumerate(images):
         scene = dataset.scene(index)
         observation = Observation(index, dataset.image_path(index), public_reading(scene) if public else scene)
         start = time.perf_counter()
-        identity = {**backend.identity(), "semantics": semantics} if public else backend.identity()
         evidence = cache.get(observation.image_path, identity, lambda: backend.evidence(observation),
                              device=device)
         timings["perception_s"] += time.perf_counter() - start
