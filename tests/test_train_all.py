@@ -24,6 +24,7 @@ MODELS = {
     "object_calibration": ("object_calibration.safetensors",),
     "attributes": ("attributes.safetensors",),
     "viewpoint": ("viewpoint.safetensors",),
+    "projection_calibration": ("projection_calibration.safetensors",),
 }
 
 
@@ -152,7 +153,8 @@ def test_full_scale_repeats_the_shipped_commands(tmp_path):
                 "background": shipped["background"]["command"],
                 "calibration": shipped["object_calibration"]["command"],
                 "attributes": shipped["attributes"]["command"],
-                "viewpoint": shipped["viewpoint"]["command"]}
+                "viewpoint": shipped["viewpoint"]["command"],
+                "projection": shipped["projection_calibration"]["command"]}
     for label, command in recorded.items():
         words = shlex.split(command)
         assert words[:3] == ours[label][:3], label

@@ -207,6 +207,8 @@ def train_projection_command(
     data: Path = _DATA, split: str = typer.Option("all", "--split", help="Split of --data (all: every image)."),
     limit: int = _LIMIT, threads: int = _THREADS, cache: Path = _CACHE,
     out: Path = typer.Option(None, "--out", help="Where to write the calibration (default: models/)."),
+    model_dir: Path = typer.Option(None, "--model-dir", help="The perception models whose projections to "
+                                                             "calibrate (default: the shipped models/)."),
 ) -> None:
     """Fit one Platt scaling per projected table (occlusion, occluders, part visibility, part occlusion) on a
     validation dataset's raw evidence; write models/projection_calibration.safetensors with its manifest entry
@@ -221,7 +223,7 @@ def train_projection_command(
 
     torch.set_num_threads(threads)
     console = Console()
-    raw = ImageBackend(calibrated_projection=False)
+    raw = ImageBackend(calibrated_projection=False, models_dir=model_dir)
     calibration, report = fit_projection_calibration(collect(
         _cached_evidence(data, split, limit, cache, raw, console, "evidence (raw projected tables)")))
     directory = Path(out) if out is not None else models_dir()
@@ -229,6 +231,7 @@ def train_projection_command(
     words = ["po3d", "train", "projection", "--data", str(data), "--split", split, "--threads", str(threads)]
     words += ["--limit", str(limit)] if limit else []
     words += ["--out", str(out)] if out is not None else []
+    words += ["--model-dir", str(model_dir)] if model_dir is not None else []
     _record(MODEL_NAME, calibration.save(directory), directory, data, words, values=calibration.to_dict(),
             metrics=report)
     console.print_json(json.dumps({"platt": calibration.to_dict(), "tables": report}))

@@ -29,7 +29,8 @@ from typing import Annotated, Any
 import typer
 
 #: Every stage, in the order they run (each reads only what the ones before it wrote).
-STAGES = ("datasets", "parser", "perception", "background", "calibration", "attributes", "viewpoint", "priors")
+STAGES = ("datasets", "parser", "perception", "background", "calibration", "attributes", "viewpoint", "projection",
+          "priors")
 #: The held-out test seed: never built or read by ``po3d train all``.
 TEST_SEED = 713
 #: The report written next to the weights.
@@ -45,6 +46,7 @@ _DESCRIPTIONS = {
     "calibration": "po3d train calibration: object parser tables (uses --out's features and background)",
     "attributes": "po3d train attributes: subtype, colour, material, size, part looks",
     "viewpoint": "po3d train viewpoint: azimuth network and its temperature",
+    "projection": "po3d train projection: Platt scaling of the projected tables (parses val with --out's models)",
     "priors": f"po3d train priors: the world's rates, written to {PRIORS_FILE}",
 }
 #: model name in the manifest -> (stage that writes it, what it is)
@@ -55,9 +57,11 @@ _MODELS = {
     "object_calibration": ("calibration", "object calibration"),
     "attributes": ("attributes", "attribute network"),
     "viewpoint": ("viewpoint", "viewpoint network"),
+    "projection_calibration": ("projection", "projection calibration"),
 }
 #: models each stage reads from --out (written by an earlier stage)
-_NEEDS_MODELS = {"calibration": ("perception_features", "background")}
+_NEEDS_MODELS = {"calibration": ("perception_features", "background"),
+                 "projection": ("perception_features", "background", "object_calibration", "attributes", "viewpoint")}
 
 
 @dataclass(frozen=True)
@@ -82,6 +86,7 @@ class Scale:
     calibration: dict[str, Any]
     attributes: dict[str, Any]
     viewpoint: dict[str, Any]
+    projection: dict[str, Any]
     #: which datasets (by name) each stage trains on; ``val`` is the validation / calibration dataset
     train_sets: dict[str, tuple[str, ...]] = field(default_factory=dict)
     val: str = "val_s712"
@@ -105,6 +110,7 @@ FULL = Scale(
     attributes={"epochs": 18, "batch_size": 32, "lr": 0.003, "part_fraction": 0.25, "splits": "train,test",
                 "val_split": "val"},
     viewpoint={"epochs": 30, "batch_size": 32, "lr": 0.003, "splits": "train,test", "val_split": "val"},
+    projection={"split": "all"},
     train_sets={"perception": ("train_s711",), "background": ("train_s711",), "priors": ("train_s711",),
                 "attributes": ("train_s711", "train_s714", "train_s715"), "viewpoint": ("train_s711", "train_s714")},
 )
@@ -124,6 +130,7 @@ TINY = Scale(
     attributes={"epochs": 1, "batch_size": 4, "lr": 0.003, "part_fraction": 0.25, "splits": "train",
                 "val_split": "val", "max_steps": 2},
     viewpoint={"epochs": 1, "batch_size": 4, "lr": 0.003, "splits": "train", "val_split": "val", "max_steps": 2},
+    projection={"split": "all", "limit": 2},
     train_sets={"perception": ("train_s711",), "background": ("train_s711",), "priors": ("train_s711",),
                 "attributes": ("train_s711",), "viewpoint": ("train_s711",)},
     evaluate=False,
@@ -187,7 +194,7 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
     from po3d_ppl.cli.attributes import train_attributes_command
     from po3d_ppl.cli.dataset import build
     from po3d_ppl.cli.language import calibrate_parser_command, train_parser_command
-    from po3d_ppl.cli.objects import train_background_command, train_calibration_command
+    from po3d_ppl.cli.objects import train_background_command, train_calibration_command, train_projection_command
     from po3d_ppl.cli.perception import train_perception_command
     from po3d_ppl.cli.priors import train_priors
     from po3d_ppl.cli.viewpoint import train_viewpoint_command
@@ -224,6 +231,8 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
         "viewpoint": [step("viewpoint", train_viewpoint_command, ["po3d", "train", "viewpoint"],
                            data=sets("viewpoint"), seed=seed, **scale.viewpoint, threads=threads, eval_data=held,
                            out=out)],
+        "projection": [step("projection", train_projection_command, ["po3d", "train", "projection"], data=val,
+                            **scale.projection, threads=threads, out=out, model_dir=out)],
         "priors": [step("priors", train_priors, ["po3d", "train", "priors"], data=sets("priors")[0], split="train",
                         out=out / PRIORS_FILE)],
     }
@@ -237,7 +246,7 @@ def datasets_needed(scale: Scale, stages: list[str]) -> list[DatasetSpec]:
     names = set()
     for stage in stages:
         names |= set(scale.train_sets.get(stage, ()))
-        if stage == "calibration" or (scale.evaluate and stage in ("perception", "attributes", "viewpoint")):
+        if stage in ("calibration", "projection") or (scale.evaluate and stage in ("perception", "attributes", "viewpoint")):
             names.add(scale.val)
     return [d for d in scale.datasets if d.name in names]
 
@@ -405,7 +414,7 @@ def train_all_command(
     threads: Annotated[int, typer.Option("--threads", min=1, help="torch CPU threads of every stage.")] = 1,
 ) -> None:
     """Train every model in dependency order (datasets, parser, perception, background, calibration, attributes,
-    viewpoint, priors) with a progress bar on each stage, and report the seconds each took."""
+    viewpoint, projection, priors) with a progress bar on each stage, and report the seconds each took."""
     from po3d_ppl.errors import InputError
     from po3d_ppl.model_store import models_dir
 

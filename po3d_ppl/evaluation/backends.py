@@ -83,10 +83,12 @@ class ImageBackend:
     pixels; it never reads ``observation.scene``. Its identity holds the shipped models' sha256 and every
     setting, so retraining or retuning never reads stale cached evidence. Visible masks are dropped from the
     evidence it returns (reasoning never reads them, and they would dominate the cache: 0.3 MB per object).
-    ``calibrated_projection=False`` leaves the projected tables raw (what their calibration is fitted on)."""
+    ``calibrated_projection=False`` leaves the projected tables raw (what their calibration is fitted on);
+    ``models_dir`` reads another model directory than the shipped one (``po3d train all --out``)."""
 
     name: str = "image"
     calibrated_projection: bool = True
+    models_dir: Path | None = None
 
     def _settings(self) -> dict[str, Any]:
         from dataclasses import asdict
@@ -121,10 +123,10 @@ class ImageBackend:
 
         used = ("perception_features", "object_calibration", "background", "attributes", "viewpoint")
         used += ("projection_calibration",) if self.calibrated_projection else ()
-        manifest = read_manifest()
+        manifest = read_manifest(self.models_dir)
         models = {name: {f: meta["sha256"] for f, meta in entry.get("files", {}).items()}
                   for name, entry in manifest.items() if name in used}
-        parser = ImageParser.load()
+        parser = ImageParser.load(self.models_dir)
         if not self.calibrated_projection:
             parser = dataclasses.replace(parser, projection_calibration=None)
         return {"name": self.name, "models": models, "settings": self._settings()}, parser

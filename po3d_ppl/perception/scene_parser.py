@@ -176,17 +176,19 @@ def _subtype_weights(subtype_loglik: torch.Tensor, config: SceneParserConfig) ->
 
 def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = None,
                 viewpoint: ViewpointNet | None = None, projection_calibration: ProjectionCalibration | None = None,
-                config: SceneParserConfig | None = None, parser_config=None) -> ParsedScene:
+                config: SceneParserConfig | None = None, parser_config=None, object_calibration=None,
+                background=None) -> ParsedScene:
     """Read ``image`` (a path, HWC array or PIL image) into :class:`SceneEvidence` with every table filled from
     pixels. An image without vehicles gives empty evidence (N = 0), which reasoning answers (count 0, ...).
     ``viewpoint`` (optional) sharpens the pose table with a whole-object azimuth reading before the parts are
     projected (:mod:`po3d_ppl.perception.viewpoint`); ``projection_calibration`` rescales the projected tables
-    (:mod:`po3d_ppl.perception.projection_calibration`)."""
+    (:mod:`po3d_ppl.perception.projection_calibration`). ``object_model``, ``object_calibration`` and
+    ``background`` go to :func:`~po3d_ppl.perception.object_parser.parse_objects` (default: the shipped ones)."""
     config = config or SceneParserConfig()
     timings: dict[str, float] = {}
     start = time.perf_counter()
     img: ImageInput = load_image(image)
-    proposals = parse_objects(img, object_model, parser_config)
+    proposals = parse_objects(img, object_model, parser_config, object_calibration, background)
     timings.update({f"objects.{k}": v for k, v in proposals.timings.items()})
     n = len(proposals)
     camera = proposals.camera
@@ -469,6 +471,8 @@ class ImageParser:
     config: SceneParserConfig = field(default_factory=SceneParserConfig)
     viewpoint: ViewpointNet | None = None
     projection_calibration: ProjectionCalibration | None = None
+    object_calibration: object = None
+    background: object = None
     name = "render-and-compare"
 
     @classmethod
@@ -490,15 +494,18 @@ class ImageParser:
             from po3d_ppl.perception.viewpoint import load_viewpoint_net
 
             viewpoint = load_viewpoint_net(models_dir, device)
+        from po3d_ppl.perception.background import load_background
+        from po3d_ppl.perception.calibration import load_calibration
         from po3d_ppl.perception.projection_calibration import load_projection_calibration
 
         return cls(load_feature_model(models_dir, device), attributes, config or SceneParserConfig(), viewpoint,
-                   load_projection_calibration(models_dir))
+                   load_projection_calibration(models_dir), load_calibration(models_dir), load_background(models_dir))
 
     def parse(self, image) -> ParsedScene:
         return parse_scene(image, object_model=self.object_model, attributes=self.attributes,
                            viewpoint=self.viewpoint, projection_calibration=self.projection_calibration,
-                           config=self.config)
+                           config=self.config, object_calibration=self.object_calibration,
+                           background=self.background)
 
     def evidence(self, image) -> SceneEvidence:
         return self.parse(image).evidence
