@@ -101,7 +101,8 @@ def data(torch_one_thread):
         items.append(ViewpointData(
             scene_data(pixels, rendered.scene, TINY.crops, i),
             torch.tensor([float(o.pose_degree) for o in objects], dtype=torch.float64),
-            torch.tensor([ontology.CATEGORIES.index(o.category) for o in objects])))
+            torch.tensor([ontology.CATEGORIES.index(o.category) for o in objects]),
+            torch.tensor([int(o.annotation.visible_pixels) for o in objects])))
     return ViewpointData.concat(items)
 
 
@@ -116,7 +117,7 @@ def test_tiny_training_is_seeded_and_learns(data):
     assert first.steps == 40 * math.ceil(data.num_objects / 8)
     calibration = calibrate_viewpoint(first.net, data)
     assert 0.25 <= calibration["temperature"] <= 1000
-    report = measure(first.net, data, min_pixels=0, height=240)
+    report = measure(first.net, data, min_pixels=0)
     assert report["objects"] == data.num_objects and 0.0 <= report["within_30"] <= 1.0
     assert crop_logits(first.net, data).shape == (data.num_objects, TINY.azimuth_bins)
 

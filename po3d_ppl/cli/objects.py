@@ -149,19 +149,23 @@ def train_background_command(
                   markup=False, highlight=False)
 
 
-def _cached_evidence(data: Path, split: str, limit: int | None, cache: Path | None, backend, console, label: str):
-    """(evidence, scene) of every image of ``split``, each parsed once into the evidence cache (the cache
-    `po3d eval vqa --perception image` shares; default DATA/eval_cache)."""
+def _evidence_cache(data: Path, cache: Path | None):
+    """The evidence cache `po3d eval vqa --perception image` shares (default DATA/eval_cache)."""
+    from po3d_ppl.evaluation.cache import EvidenceCache
+
+    return EvidenceCache(cache if cache is not None else Path(data) / "eval_cache")
+
+
+def _cached_evidence(data: Path, split: str, limit: int | None, store, backend, console, label: str):
+    """(evidence, scene) of every image of ``split``, each parsed once into the evidence cache ``store``."""
     from rich.progress import track
 
     from po3d_ppl.evaluation.backends import Observation
-    from po3d_ppl.evaluation.cache import EvidenceCache
     from po3d_ppl.questions.dataset import load_dataset
 
     dataset = load_dataset(data)
     indices = dataset.split_indices(split)
     indices = indices[:limit] if limit else indices
-    store = EvidenceCache(cache if cache is not None else Path(data) / "eval_cache")
     identity = backend.identity()
     for index in track(indices, description=label, console=console):
         observation = Observation(index, dataset.image_path(index), dataset.scene(index))
@@ -187,17 +191,17 @@ def eval_evidence_command(
     from po3d_ppl.evaluation.backends import ImageBackend
     from po3d_ppl.evaluation.evidence_scores import EvidenceCounts
     from po3d_ppl.evaluation.objects import EvidenceAsProposals, score_image, summarise
-    from po3d_ppl.evaluation.projection import collect, measure
+    from po3d_ppl.evaluation.projection import as_tensors, measure
 
     torch.set_num_threads(threads)
     console = Console()
-    counts, outcomes, seen = EvidenceCounts(), [], []
-    for evidence, scene in _cached_evidence(data, split, limit, cache, ImageBackend(), console, "evidence"):
+    counts, outcomes, store = EvidenceCounts(), [], _evidence_cache(data, cache)
+    for evidence, scene in _cached_evidence(data, split, limit, store, ImageBackend(), console, "evidence"):
         counts.add(evidence, scene)
         outcomes.append(score_image(EvidenceAsProposals.of(evidence), scene, scene.image_filename, 0.0))
-        seen.append((evidence, scene))
     figures = {"evidence": counts.figures(), "objects": summarise(outcomes),
-               "projected_tables": measure(None, collect(seen))}
+               "projected_tables": measure(None, as_tensors(counts.entries)),
+               "cache": {"hits": store.hits, "misses": store.misses}}
     if json_out is not None:
         Path(json_out).write_text(json.dumps(figures, indent=1) + "\n")
     console.print_json(json.dumps(figures))
@@ -225,7 +229,8 @@ def train_projection_command(
     console = Console()
     raw = ImageBackend(calibrated_projection=False, models_dir=model_dir)
     calibration, report = fit_projection_calibration(collect(
-        _cached_evidence(data, split, limit, cache, raw, console, "evidence (raw projected tables)")))
+        _cached_evidence(data, split, limit, _evidence_cache(data, cache), raw, console,
+                         "evidence (raw projected tables)")))
     directory = Path(out) if out is not None else models_dir()
     directory.mkdir(parents=True, exist_ok=True)
     words = ["po3d", "train", "projection", "--data", str(data), "--split", split, "--threads", str(threads)]

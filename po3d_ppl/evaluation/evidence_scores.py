@@ -24,11 +24,15 @@ from po3d_ppl.evaluation.objects import match_boxes
 
 @dataclass
 class EvidenceCounts:
-    """Counts summed over images; :meth:`figures` turns them into accuracies and F1s."""
+    """Counts summed over images (:meth:`figures` turns them into accuracies and F1s), and every projected
+    table's (log-odds, truth) entries (:func:`po3d_ppl.evaluation.projection.table_entries`), which the occlusion
+    F1s and the part visibility recall are read from (at log-odds 0) and the tables' calibration is measured on."""
 
     counts: Counter = field(default_factory=Counter)
+    entries: dict[str, tuple[list[float], list[bool]]] = field(default_factory=dict)
 
     def add(self, evidence, scene, min_iou: float = 0.5) -> None:
+        from po3d_ppl.evaluation.projection import table_entries
         from po3d_ppl.evidence import STATE_COLOR, STATE_MATERIAL, style_index
         from po3d_ppl.perception.simulated import part_visible
 
@@ -41,7 +45,6 @@ class EvidenceCounts:
         c["objects"] += len(objs)
         c["matched"] += len(pairs)
         c["proposals"] += evidence.num_objects
-        of_truth = {j: i for i, j in pairs}
         for i, j in pairs:
             o = objs[j]
             s = ontology.SUBTYPES.index(o.subtype)
@@ -50,15 +53,9 @@ class EvidenceCounts:
             c["material_ok"] += int(evidence.material_loglik[i].argmax()) == ontology.MATERIALS.index(o.material)
             c["size_ok"] += int(evidence.size_loglik[i].argmax()) == ontology.SIZES.index(o.size)
             for p, raw in enumerate(ontology.PARTS[o.subtype]):
-                truth_occluded = o.part_occluded(raw)
-                said_occluded = bool(evidence.part_occluded_logodds[i, s, p] > 0)
-                c["part_occ_tp"] += truth_occluded and said_occluded
-                c["part_occ_fp"] += said_occluded and not truth_occluded
-                c["part_occ_fn"] += truth_occluded and not said_occluded
                 if not part_visible(o, raw):
                     continue
                 c["visible_parts"] += 1
-                c["part_visible_ok"] += bool(evidence.part_visible_logodds[i, s, p] > 0)
                 style = o.parts.get(raw)
                 truth = style_index(style.color, style.material) if style else 0
                 said = int(evidence.part_style_loglik[i, s, p].argmax())
@@ -69,17 +66,19 @@ class EvidenceCounts:
                     state = said + 1  # the part-state axis puts "hidden" first
                     c["part_color_ok"] += int(STATE_COLOR[state]) == ontology.COLORS.index(style.color)
                     c["part_material_ok"] += int(STATE_MATERIAL[state]) == ontology.MATERIALS.index(style.material)
-        for j, o in enumerate(objs):
-            if j not in of_truth:
-                continue
-            for k in range(len(objs)):
-                if k == j or k not in of_truth:
-                    continue
-                truth = k in o.occluded_by
-                said = bool(evidence.occludes_logodds[of_truth[j], of_truth[k]] > 0)
-                c["occ_tp"] += truth and said
-                c["occ_fp"] += said and not truth
-                c["occ_fn"] += truth and not said
+        for name, (values, truths) in table_entries(evidence, scene, min_iou).items():
+            kept = self.entries.setdefault(name, ([], []))
+            kept[0].extend(values)
+            kept[1].extend(truths)
+            prefix = {"occludes_logodds": "occ", "part_occluded_logodds": "part_occ"}.get(name)
+            for value, truth in zip(values, truths):
+                said = value > 0
+                if prefix is not None:
+                    c[f"{prefix}_tp"] += truth and said
+                    c[f"{prefix}_fp"] += said and not truth
+                    c[f"{prefix}_fn"] += truth and not said
+                elif name == "part_visible_logodds" and truth:
+                    c["part_visible_ok"] += said
 
     def figures(self) -> dict[str, float | int | None]:
         c = self.counts

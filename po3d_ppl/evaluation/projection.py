@@ -57,6 +57,11 @@ def collect(pairs: Iterable[tuple[object, object]]) -> dict[str, tuple[torch.Ten
         for name, (x, y) in table_entries(evidence, scene).items():
             values[name][0].extend(x)
             values[name][1].extend(y)
+    return as_tensors(values)
+
+
+def as_tensors(values: dict[str, tuple[list[float], list[bool]]]) -> dict[str, tuple[torch.Tensor, torch.Tensor]]:
+    """Entries gathered as lists (``collect``, ``EvidenceCounts.entries``) as (float64, bool) tensors."""
     return {name: (torch.tensor(x, dtype=torch.float64), torch.tensor(y, dtype=torch.bool))
             for name, (x, y) in values.items()}
 

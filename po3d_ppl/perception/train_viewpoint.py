@@ -49,11 +49,12 @@ TOLERANCE = 30.0
 @dataclass
 class ViewpointData:
     """Object crops of one or more splits (an :class:`AttributeData`'s object fields) with ``pose_degree`` [N]
-    and ``category`` [N] (``ontology.CATEGORIES`` index) labels."""
+    and ``category`` [N] (``ontology.CATEGORIES`` index) labels and ``visible_pixels`` [N] (for measuring)."""
 
     crops: AttributeData
     pose_degree: torch.Tensor
     category: torch.Tensor
+    visible_pixels: torch.Tensor
 
     @property
     def num_objects(self) -> int:
@@ -62,7 +63,7 @@ class ViewpointData:
     @classmethod
     def concat(cls, items: Sequence[ViewpointData]) -> ViewpointData:
         return cls(AttributeData.concat([d.crops for d in items]), torch.cat([d.pose_degree for d in items]),
-                   torch.cat([d.category for d in items]))
+                   torch.cat([d.category for d in items]), torch.cat([d.visible_pixels for d in items]))
 
 
 def load_viewpoint_split(data: Path | str, split: str, config: ViewpointConfig | None = None, *,
@@ -81,7 +82,8 @@ def load_viewpoint_split(data: Path | str, split: str, config: ViewpointConfig |
     degrees = torch.tensor([float(o.pose_degree) for o in objects], dtype=torch.float64).reshape(-1)
     category = torch.tensor([ontology.CATEGORIES.index(ontology.CATEGORY_OF[o.subtype]) for o in objects],
                             dtype=torch.long).reshape(-1)
-    return ViewpointData(crops, degrees, category)
+    pixels = torch.tensor([int(o.annotation.visible_pixels) for o in objects], dtype=torch.long).reshape(-1)
+    return ViewpointData(crops, degrees, category, pixels)
 
 
 @dataclass(frozen=True)
@@ -173,14 +175,13 @@ def angular_error(predicted: torch.Tensor, truth: torch.Tensor) -> torch.Tensor:
     return torch.minimum(d, 360.0 - d)
 
 
-def measure(net: ViewpointNet, data: ViewpointData, min_pixels: int = 200, height: int = 480) -> dict[str, Any]:
+def measure(net: ViewpointNet, data: ViewpointData, min_pixels: int = 200) -> dict[str, Any]:
     """Azimuth within ``TOLERANCE`` per category, front/back flips (error > 150 degrees), and top-bin ECE, on the
     crops of objects with at least ``min_pixels`` visible pixels (the issue's detection floor)."""
     logp = F.log_softmax(crop_logits(net, data) / net.temperature.cpu(), -1)
     bins = net.config.azimuth_bins
     predicted = logp.argmax(-1).double() * (360.0 / bins)
-    pixels = (data.crops.object_geometry[:, 4].double() * height) ** 2
-    keep = pixels >= min_pixels
+    keep = data.visible_pixels >= min_pixels
     error = angular_error(predicted, data.pose_degree)
     nearest = torch.round(data.pose_degree / (360.0 / bins)).long() % bins
     out: dict[str, Any] = {"objects": int(keep.sum()),
