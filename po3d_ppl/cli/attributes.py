@@ -22,13 +22,16 @@ def _bar(console, what: str):
                     console=console)
 
 
-def _load(console, data: Path, split: str, config, cache: Path | None):
-    from po3d_ppl.perception.train_attributes import load_split
+def _load(console, data: Path, split: str, config, cache: Path | None, loader=None):
+    """One split's crops (``loader``: ``train_attributes.load_split`` or a reader with its signature) under a
+    progress bar."""
+    if loader is None:
+        from po3d_ppl.perception.train_attributes import load_split as loader
 
     with _bar(console, f"crops {data.name}/{split}") as bar:
         task = bar.add_task(split, total=None)
-        return load_split(data, split, config, cache=cache,
-                          progress=lambda done, total: bar.update(task, completed=done, total=total))
+        return loader(data, split, config, cache=cache,
+                      progress=lambda done, total: bar.update(task, completed=done, total=total))
 
 
 def _dataset_manifest(data: Path) -> dict:

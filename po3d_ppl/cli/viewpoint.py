@@ -13,16 +13,14 @@ from typing import Annotated
 
 import typer
 
-from po3d_ppl.cli.attributes import _bar, _build_command, _dataset_manifest
+from po3d_ppl.cli.attributes import _build_command, _dataset_manifest
+from po3d_ppl.cli.attributes import _load as _load_crops
 
 
 def _load(console, data: Path, split: str, config, cache: Path | None):
     from po3d_ppl.perception.train_viewpoint import load_viewpoint_split
 
-    with _bar(console, f"crops {data.name}/{split}") as bar:
-        task = bar.add_task(split, total=None)
-        return load_viewpoint_split(data, split, config, cache=cache,
-                                    progress=lambda done, total: bar.update(task, completed=done, total=total))
+    return _load_crops(console, data, split, config, cache, load_viewpoint_split)
 
 
 def _print_measure(console, title: str, report: dict) -> None:
