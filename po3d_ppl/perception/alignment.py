@@ -54,28 +54,29 @@ class Alignment:
 def best_shift(silhouette: np.ndarray, free: np.ndarray, mask: np.ndarray, radius: int
                ) -> tuple[tuple[int, int], float, float]:
     """((dx, dy), IoU there, IoU unshifted) of ``silhouette`` moved by whole pixels within ``radius``, scored as
-    IoU(moved silhouette & free, mask). All boolean [H, W]; computed on the padded box around both."""
+    IoU(moved silhouette & free, mask). All boolean [H, W]; computed on the padded box around both.
+
+    Every shift at once: the moved silhouette's overlap with ``free & mask`` and with ``free`` are two
+    cross-correlations (``cv2.matchTemplate``; counts of 0/1 pixels are exact in float32), so the cost does not
+    grow with the number of shifts. Ties go to the first shift in (dy, dx) order."""
+    import cv2
+
     ys, xs = np.nonzero(silhouette | mask)
     if ys.size == 0:
         return (0, 0), 0.0, 0.0
     h, w = mask.shape
     y0, y1 = max(ys.min() - radius, 0), min(ys.max() + radius + 1, h)
     x0, x1 = max(xs.min() - radius, 0), min(xs.max() + radius + 1, w)
-    sil = np.pad(silhouette[y0:y1, x0:x1], radius)
+    sil = np.pad(silhouette[y0:y1, x0:x1], radius).astype(np.float32)
     target, allowed = mask[y0:y1, x0:x1], free[y0:y1, x0:x1]
-    mask_area = int(target.sum())
-    best, best_iou, start_iou = (0, 0), -1.0, 0.0
-    for dy in range(-radius, radius + 1):
-        for dx in range(-radius, radius + 1):
-            moved = sil[radius - dy: radius - dy + (y1 - y0), radius - dx: radius - dx + (x1 - x0)] & allowed
-            inter = int((moved & target).sum())
-            union = int(moved.sum()) + mask_area - inter
-            iou = inter / union if union else 0.0
-            if dx == 0 and dy == 0:
-                start_iou = iou
-            if iou > best_iou:
-                best, best_iou = (dx, dy), iou
-    return best, best_iou, start_iou
+    # result[u, v] sums over the window with the silhouette moved by (dy, dx) = (radius - u, radius - v)
+    inter = cv2.matchTemplate(sil, (target & allowed).astype(np.float32), cv2.TM_CCORR)[::-1, ::-1]
+    moved = cv2.matchTemplate(sil, allowed.astype(np.float32), cv2.TM_CCORR)[::-1, ::-1]
+    inter, moved = np.rint(inter).astype(np.int64), np.rint(moved).astype(np.int64)
+    union = moved + int(target.sum()) - inter
+    iou = np.where(union > 0, inter / np.maximum(union, 1), 0.0)
+    dy, dx = np.unravel_index(int(np.argmax(iou)), iou.shape)
+    return (int(dx) - radius, int(dy) - radius), float(iou[dy, dx]), float(iou[radius, radius])
 
 
 def align_silhouette(render, mask: np.ndarray, free: np.ndarray, config: AlignmentConfig = AlignmentConfig()
