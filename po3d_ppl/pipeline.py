@@ -31,6 +31,7 @@ from po3d_ppl.reasoning import AnswerDistribution, Budget, SceneReasoner
 
 if TYPE_CHECKING:
     from po3d_ppl.perception.scene_parser import ImageParser, ParsedScene
+    from po3d_ppl.reasoning.answer_calibration import AnswerCalibration
 
 
 def answer_question(reasoner: SceneReasoner, question: str, parser=None, *, n_best: int = 3, method: str = "auto",
@@ -48,23 +49,28 @@ def answer_question(reasoner: SceneReasoner, question: str, parser=None, *, n_be
 
 
 def answer_parse(reasoner: SceneReasoner, parse, *, method: str = "auto", num_samples: int = 4096, seed: int = 0,
-                 budget: Budget | None = None, presuppose: bool = True) -> AnswerDistribution:
+                 budget: Budget | None = None, presuppose: bool = True, calibration=None) -> AnswerDistribution:
     """The answer distribution of an already parsed question (its n-best programs weighted by probability), so a
-    question asked of many images is parsed once."""
+    question asked of many images is parsed once; ``calibration`` (an
+    :class:`~po3d_ppl.reasoning.answer_calibration.AnswerCalibration`) recalibrates it."""
     weighted = [(candidate.probability, reasoner.infer(candidate.program, method, num_samples=num_samples, seed=seed,
                                                        budget=budget))
                 for candidate in parse.candidates]
     joint = AnswerDistribution.mixture(weighted, method=method)
-    return joint.given_presuppositions() if presuppose else joint
+    dist = joint.given_presuppositions() if presuppose else joint
+    return dist if calibration is None else calibration.apply(dist)
 
 @dataclass
 class Pipeline:
-    """The shipped models loaded once: perception (pixels -> ``SceneEvidence``), the question parser and the
-    reasoning engine. ``answer_many`` parses each image once for all its questions."""
+    """The shipped models loaded once: perception (pixels -> ``SceneEvidence``), the question parser, the scene
+    model's priors (fitted to the world: ``models/priors.json``) and the reasoning engine. ``answer_many`` parses
+    each image once for all its questions."""
 
     perception: ImageParser
     parser: object
     priors: ScenePriors = field(default_factory=ScenePriors)
+    #: Post-hoc recalibration of the answers (``models/answer_calibration.json``); None returns the raw posterior.
+    answer_calibration: AnswerCalibration | None = None
 
     def scene(self, image) -> ParsedScene:
         """Everything perception read from ``image`` (evidence, proposals, projections, timings)."""
@@ -87,7 +93,8 @@ class Pipeline:
         for image in images:
             reasoner = SceneReasoner(self.perception.evidence(image), self.priors)
             out.append([answer_parse(reasoner, parse, method=method, seed=seed, budget=budget,
-                                     presuppose=presuppose) for parse in parses])
+                                     presuppose=presuppose, calibration=self.answer_calibration)
+                        for parse in parses])
         return out
 
 
@@ -95,10 +102,13 @@ def load_pipeline(models_dir: str | Path | None = None, device: str | None = Non
     """The shipped perception models and question parser (or those of ``models_dir``), checked against their
     sha256; ``device`` (default CPU) for the networks."""
     from po3d_ppl.language import QuestionParser
+    from po3d_ppl.perception.priors import load_priors
     from po3d_ppl.perception.scene_parser import ImageParser
+    from po3d_ppl.reasoning.answer_calibration import load_answer_calibration
 
     device = device or "cpu"
-    return Pipeline(ImageParser.load(models_dir, device), QuestionParser.load(models_dir, device=device))
+    return Pipeline(ImageParser.load(models_dir, device), QuestionParser.load(models_dir, device=device),
+                    load_priors(models_dir), load_answer_calibration(models_dir))
 
 
 @lru_cache(maxsize=1)

@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 
 from po3d_ppl import ontology
 from po3d_ppl.cli import app
-from po3d_ppl.errors import InputError
+from po3d_ppl.errors import InputError, ModelFileError
 from po3d_ppl.evidence import ScenePriors
 from po3d_ppl.perception.priors import count_rates, fit_priors
 from po3d_ppl.questions.toy_scenes import toy_object, toy_scene
@@ -38,13 +38,23 @@ def test_no_scenes_is_a_typed_error():
         fit_priors([])
 
 
-def test_cli_prints_and_writes_the_rates(shared_dataset, tmp_path):
+def test_cli_prints_writes_and_ships_the_rates(shared_dataset, tmp_path):
+    from po3d_ppl.model_store import read_manifest
+    from po3d_ppl.perception.priors import PRIORS_FILE, load_priors
+
     root, _, _ = shared_dataset
-    out = tmp_path / "priors.json"
-    result = CliRunner().invoke(app, ["train", "priors", "--data", str(root), "--split", "val", "--out", str(out)])
+    assert load_priors(tmp_path) == ScenePriors()  # none listed: the hand-set defaults
+    result = CliRunner().invoke(app, ["train", "priors", "--data", str(root), "--split", "val", "--out",
+                                      str(tmp_path)])
     assert result.exit_code == 0, result.output
     assert "part_recoloured" in result.output and "hand-set" in result.output
-    record = json.loads(out.read_text())
-    assert record["scenes"] == 33 and set(record["counts"]) >= {"occluded", "part_occludes"}
+    entry = read_manifest(tmp_path)["priors"]
+    assert entry["metrics"]["scenes"] == 33 and set(entry["metrics"]["counts"]) >= {"occluded", "part_occludes"}
+    assert "--split val" in entry["command"]
+    fitted = load_priors(tmp_path)
     # the world is far from the hand-set priors (docs/reasoning.md measured 0.47 recoloured given visible)
-    assert record["priors"]["part_recoloured"] > 2 * record["hand_set"]["part_recoloured"]
+    assert fitted.part_recoloured > 2 * ScenePriors().part_recoloured
+    assert json.loads((tmp_path / PRIORS_FILE).read_text())["part_recoloured"] == fitted.part_recoloured
+    (tmp_path / PRIORS_FILE).write_text((tmp_path / PRIORS_FILE).read_text().replace("0.", "0.9", 1))
+    with pytest.raises(ModelFileError, match="priors"):
+        load_priors(tmp_path)

@@ -34,6 +34,11 @@ def test_apply_rescales_each_listed_table_and_keeps_the_diagonal(scene):
     assert torch.all(out.occludes_logodds.diagonal() == 0)
     assert torch.allclose(out.part_visible_logodds, evidence.part_visible_logodds * 2.0 + 0.5)
     assert torch.equal(out.occluded_logodds, evidence.occluded_logodds)  # not listed: unchanged
+    likelihood = ProjectionCalibration({"occluded_logodds": (2.0, 0.5)}, {"occluded_logodds": 0.2}).apply(evidence)
+    assert torch.allclose(likelihood.occluded_logodds, evidence.occluded_logodds * 2.0 + 0.5 - torch.logit(
+        torch.tensor(0.2, dtype=torch.float64)))  # the fitted base rate is divided out
+    with pytest.raises(InputError, match="base rate"):
+        ProjectionCalibration({"occluded_logodds": (1.0, 0.0)}, {"occluded_logodds": 1.0})
     with pytest.raises(InputError, match="unknown table"):
         ProjectionCalibration({"pose_loglik": (1.0, 0.0)})
     with pytest.raises(InputError, match="scale"):
@@ -45,7 +50,8 @@ def test_files_round_trip_and_are_checked(tmp_path):
     from po3d_ppl.perception.projection_calibration import MODEL_NAME
 
     assert load_projection_calibration(tmp_path) is None  # none listed: the parser keeps the raw tables
-    calibration = ProjectionCalibration({name: (1.0 + k, -0.5 * k) for k, name in enumerate(TABLES)})
+    calibration = ProjectionCalibration({name: (1.0 + k, -0.5 * k) for k, name in enumerate(TABLES)},
+                                        {name: 0.1 + 0.1 * k for k, name in enumerate(TABLES)})
     write_entry(MODEL_NAME, [calibration.save(tmp_path)], tmp_path, command="test")
     assert load_projection_calibration(tmp_path) == calibration
     (tmp_path / WEIGHTS).write_bytes((tmp_path / WEIGHTS).read_bytes()[:-3] + b"xyz")
@@ -78,6 +84,7 @@ def test_platt_fit_finds_the_rate_behind_a_floored_table(scene):
     a, b = calibration.platt["occluded_logodds"]
     assert torch.sigmoid(torch.tensor(-floor * a + b)) == pytest.approx(float(low.double().mean()), abs=0.005)
     assert torch.sigmoid(torch.tensor(floor * a + b)) == pytest.approx(float(high.double().mean()), abs=0.01)
+    assert calibration.base_rate["occluded_logodds"] == pytest.approx(float(y.double().mean()))
     row = report["occluded_logodds"]
     assert row["after"]["ece"] < row["before"]["ece"] and row["after"]["nll"] < row["before"]["nll"]
     measured = measure(calibration, {"occluded_logodds": (x, y)})["occluded_logodds"]
@@ -86,3 +93,19 @@ def test_platt_fit_finds_the_rate_behind_a_floored_table(scene):
     assert one_sided["occluded_logodds"]["fitted"] is None  # nothing to fit without both outcomes
     assert collect([(simulated_evidence(scene, noise=0.0), scene)])["occluded_logodds"][0].numel() == \
         len(scene.objects)
+
+
+def test_scene_model_posterior_is_the_fitted_one_at_the_world_rate(scene):
+    """The calibrated table is a likelihood: with the base rate as the scene model's prior, the posterior of
+    "object i is occluded" is the Platt probability, not the base rate counted twice."""
+    from dataclasses import replace
+
+    from po3d_ppl.evidence import ScenePriors
+    from po3d_ppl.reasoning.posterior import site_posteriors
+
+    evidence = simulated_evidence(scene, noise=0.2, seed=3)
+    a, b, rate = 1.3, -0.7, 0.2
+    calibrated = ProjectionCalibration({"occluded_logodds": (a, b)}, {"occluded_logodds": rate}).apply(evidence)
+    posterior = site_posteriors(calibrated, replace(ScenePriors(), occluded=rate))["occluded"]
+    expected = torch.sigmoid(evidence.occluded_logodds * a + b)
+    assert torch.allclose(posterior[..., 1].reshape(-1), expected, atol=1e-9)

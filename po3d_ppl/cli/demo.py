@@ -65,7 +65,9 @@ def demo(
         for name in files:
             if per_file[name] and len(picked) < questions:
                 picked.append((name, per_file[name].pop(0)))
-    parser = QuestionParser.load()
+    from po3d_ppl.perception.priors import load_priors
+
+    parser, priors, calibration = QuestionParser.load(), load_priors(), None
     if evidence == "image":
         from po3d_ppl.perception.overlay import draw_overlay
         from po3d_ppl.perception.scene_parser import ImageParser
@@ -77,10 +79,13 @@ def demo(
                       f"-> {out / 'overlay.png'}", markup=False, highlight=False)
         for note in parsed.notes:
             console.print(f"  note: {note}", markup=False, highlight=False)
-        reasoner = SceneReasoner(parsed.evidence)
+        from po3d_ppl.reasoning.answer_calibration import load_answer_calibration
+
+        reasoner = SceneReasoner(parsed.evidence, priors)
+        calibration = load_answer_calibration()  # fitted on perception's evidence: for images only
         source = "perception on the image"
     else:
-        reasoner = SceneReasoner(simulated_evidence(scene, noise=noise, seed=seed))
+        reasoner = SceneReasoner(simulated_evidence(scene, noise=noise, seed=seed), priors)
         source = f"ground truth with sensor noise {noise}"
     table = Table(title=f"answers given their presuppositions (evidence: {source})", show_lines=True)
     for column in ("question", "parsed program", "answer distribution", "truth"):
@@ -90,6 +95,7 @@ def demo(
         with warnings.catch_warnings():  # the table shows the failure probability itself
             warnings.simplefilter("ignore", PresuppositionWarning)
             dist, parse = answer_question(reasoner, q["question"], parser, method=method)
+        dist = dist if calibration is None else calibration.apply(dist)
         top = ", ".join(f"{dist.words(a)} {p:.2f}" for a, p in list(dist.probs.items())[:3])
         if dist.presupposition_failure > 0.005:
             top += f" (presupposition fails: {dist.presupposition_failure:.2f})"

@@ -23,6 +23,8 @@ _LIMIT = typer.Option(None, "--limit", min=1, help="Only the first N images of t
 _CACHE = typer.Option(None, "--cache", help="Evidence cache directory (default: DATA/eval_cache).")
 _THREADS = typer.Option(1, "--threads", min=1, help="torch CPU threads.")
 _DEVICE = typer.Option("cpu", "--device", help="torch device for the evidence and inference (cpu, cuda).")
+_PRIORS = typer.Option("shipped", "--priors", help="The scene model's priors: shipped (fitted to the world, "
+                       "models/priors.json), hand-set (ScenePriors()), or a model directory with a priors.json.")
 _PERCEPTION = typer.Option("simulated", "--perception",
                            help="Evidence back-end: simulated (the sensor on the true scene, --noise, --seed) or "
                                 "image (the render-and-compare parser on the pixels; shipped models).")
@@ -42,8 +44,26 @@ def _progress(console, label: str):
                     TimeElapsedColumn(), TimeRemainingColumn(), console=console)
 
 
+def resolve_priors(priors: str):
+    """``--priors``: shipped, hand-set or a model directory."""
+    from po3d_ppl.errors import InputError
+    from po3d_ppl.evidence import ScenePriors
+    from po3d_ppl.perception.priors import load_priors
+
+    if priors == "hand-set":
+        return ScenePriors()
+    if priors == "shipped":
+        return load_priors()
+    if not Path(priors).is_dir():
+        raise InputError("--priors", f"{priors!r} is neither shipped, hand-set nor a model directory")
+    return load_priors(Path(priors))
+
+
 def _run(data: Path, split: str, methods: str, noise: float, seed: int, limit, cache: Path | None, parse: bool,
-         device: str, threads: int, console, label: str, perception: str = "simulated", semantics: str = "intended"):
+         device: str, threads: int, console, label: str, perception: str = "simulated", semantics: str = "intended",
+         priors: str = "shipped"):
+    """(dataset, run, cache) of one evaluation; with image evidence, ``ours`` is also reported recalibrated by the
+    shipped answer calibration (``ours_calibrated``), when one is shipped."""
     import torch
 
     from po3d_ppl.errors import InputError
@@ -57,11 +77,15 @@ def _run(data: Path, split: str, methods: str, noise: float, seed: int, limit, c
     dataset = load_dataset(data)
     if perception not in ("simulated", "image"):
         raise InputError("--perception", f"{perception!r} is not a back-end; use simulated or image")
+    from po3d_ppl.reasoning.answer_calibration import load_answer_calibration
+
     backend = SimulatedBackend(noise, seed) if perception == "simulated" else ImageBackend()
+    recalibrate = load_answer_calibration() if perception == "image" and "ours" in chosen else None
     store = EvidenceCache(cache if cache is not None else Path(data) / "eval_cache")
     with _progress(console, label) as bar:
         task = bar.add_task(label, total=None)
         run = evaluate(dataset, split, backend, chosen, cache=store, limit=limit, parse=parse, device=device,
+                       priors=resolve_priors(priors), answer_calibration=recalibrate,
                        progress=lambda done, total: bar.update(task, completed=done, total=total),
                        semantics=semantics)
     return dataset, run, store
@@ -79,6 +103,7 @@ def vqa_command(
     cache: Path = _CACHE, device: str = _DEVICE, threads: int = _THREADS, perception: str = _PERCEPTION,
     semantics: str = typer.Option("intended", "--semantics", help="intended (default) or public: score against the "
                                   "public Super-CLEVR-3D code's answers (a dataset built with --semantics public)."),
+    priors: str = _PRIORS,
 ) -> None:
     """Accuracy per question type (the paper's Table 1 columns, CLEVR core, families) and difficulty analysis."""
     from rich.console import Console
@@ -89,7 +114,7 @@ def vqa_command(
 
     console = Console()
     _, run, store = _run(data, split, methods, noise, seed, limit, cache, parse, device, threads, console,
-                         "eval vqa", perception, semantics)
+                         "eval vqa", perception, semantics, priors)
     figure = None
     if figures is not None:
         figure = difficulty_plot(difficulty_panels(run), Path(figures) / "difficulty.png")
@@ -117,6 +142,7 @@ def calibration_command(
                               help="Noise levels of the sweep (comma-separated; empty to skip it)."),
     sweep_limit: int = typer.Option(None, "--sweep-limit", min=1, help="Images per sweep point (default: --limit)."),
     cache: Path = _CACHE, device: str = _DEVICE, threads: int = _THREADS, perception: str = _PERCEPTION,
+    priors: str = _PRIORS,
 ) -> None:
     """ECE (15 bins), MCE, Brier, NLL and reliability diagrams per method, and a noise sweep (the sweep always
     uses the simulated sensor: it varies its noise)."""
@@ -135,7 +161,7 @@ def calibration_command(
     console = Console()
     source = f"noise {noise:g}" if perception == "simulated" else "perception on the images"
     dataset, run, store = _run(data, split, methods, noise, seed, limit, cache, False, device, threads, console,
-                               f"calibration ({source})", perception)
+                               f"calibration ({source})", perception, priors=priors)
     reports = calibration_reports(run)
     out = Path(out)
     reliability_diagrams(reports, out / "reliability.png", f"split {split}, {source}, "
@@ -149,7 +175,7 @@ def calibration_command(
         with _progress(console, "noise sweep") as bar:
             task = bar.add_task("sweep", total=None)
             points = noise_sweep(dataset, split, noises, parse_methods(methods), seed=seed, cache=store,
-                                 limit=sweep_limit or limit,
+                                 limit=sweep_limit or limit, priors=resolve_priors(priors),
                                  progress=lambda n, d, t: bar.update(task, completed=d, total=t,
                                                                      description=f"noise {n:g}"))
         noise_sweep_plot(points, out / "noise_sweep.png", f"split {split}: accuracy and ECE against noise")
@@ -164,6 +190,54 @@ def calibration_command(
     console.print(f"wrote {out / 'calibration.md'}", markup=False, highlight=False, soft_wrap=True)
 
 
+def train_answer_calibration_command(
+    data: Path = _DATA, split: str = typer.Option("all", "--split", help="Split of the VALIDATION dataset (all: "
+                                                                        "every image of a held-out seed)."),
+    limit: int = _LIMIT, cache: Path = _CACHE, device: str = _DEVICE, threads: int = _THREADS,
+    perception: str = typer.Option("image", "--perception", help="Evidence the calibration is for: image (the "
+                                   "shipped perception; what the pipeline applies it to) or simulated."),
+    noise: float = _NOISE, seed: int = _SEED, priors: str = _PRIORS,
+    out: Path = typer.Option(None, "--out", help="Model directory to write answer_calibration.json and its manifest "
+                                                 "entry into (default: the shipped models/)."),
+) -> None:
+    """Fit the answer calibration (a temperature and a smoothing per answer type) on a VALIDATION dataset's
+    questions answered by ours from the image, and ship it: the pipeline applies it to every answer from an image.
+    Never fit it on the split you report."""
+    import shlex
+
+    from rich.console import Console
+
+    from po3d_ppl.evaluation.answer_calibration import fit
+    from po3d_ppl.evaluation.calibration import calibration_report
+    from po3d_ppl.evaluation.runner import CALIBRATED, _recalibrated
+    from po3d_ppl.model_store import models_dir, write_entry
+    from po3d_ppl.reasoning.answer_calibration import MODEL_NAME
+
+    console = Console()
+    dataset, run, _ = _run(data, split, "ours", noise, seed, limit, cache, False, device, threads, console,
+                           "answer calibration", perception, priors=priors)
+    calibration, per_type = fit(run.records)
+    for record in run.records:
+        record.predictions[CALIBRATED] = _recalibrated(record, calibration)
+    before, after = calibration_report(run.records, "ours"), calibration_report(run.records, CALIBRATED)
+    directory = Path(out) if out is not None else models_dir()
+    directory.mkdir(parents=True, exist_ok=True)
+    words = ["po3d", "train", "answer-calibration", "--data", str(data), "--split", split, "--perception",
+             perception, "--priors", priors]
+    words += ["--limit", str(limit)] if limit else []
+    words += ["--noise", str(noise), "--seed", str(seed)] if perception == "simulated" else []
+    words += ["--out", str(out)] if out is not None else []
+    metrics = {"questions": len(run.records), "images": run.images, "types": per_type,
+               "fit_split": {"before": {k: before.row()[k] for k in ("accuracy", "mean_confidence", "ece", "nll")},
+                             "after": {k: after.row()[k] for k in ("accuracy", "mean_confidence", "ece", "nll")}}}
+    write_entry(MODEL_NAME, [calibration.save(directory)], directory, command=shlex.join(words),
+                data_seed=dataset.manifest.get("seed"), data_config=dataset.manifest.get("config"), metrics=metrics)
+    console.print_json(json.dumps({"calibration": calibration.to_dict(), **metrics}))
+    console.print(f"answer calibration -> {directory / 'answer_calibration.json'} (fitted on {data}; report it on "
+                  "another seed)", markup=False, highlight=False)
+
+
 def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:
     eval_app.command("vqa")(vqa_command)
     eval_app.command("calibration")(calibration_command)
+    train_app.command("answer-calibration")(train_answer_calibration_command)

@@ -169,8 +169,8 @@ def _cached_evidence(data: Path, split: str, limit: int | None, store, backend, 
     identity = backend.identity()
     for index in track(indices, description=label, console=console):
         observation = Observation(index, dataset.image_path(index), dataset.scene(index))
-        yield store.get(observation.image_path, identity, lambda seen=observation: backend.evidence(seen)), \
-            observation.scene
+        evidence = store.get(observation.image_path, identity, lambda seen=observation: backend.evidence(seen))
+        yield backend.calibrate(evidence), observation.scene
 
 
 _CACHE = typer.Option(None, "--cache", help="Evidence cache directory (shared with `po3d eval vqa --perception "

@@ -10,11 +10,14 @@ import typer
 def train_priors(
     data: Path = typer.Option(..., "--data", help="Dataset directory from `po3d dataset build`."),
     split: str = typer.Option("train", "--split", help="Split whose ground-truth scenes are counted."),
-    out: Path = typer.Option(None, "--out", help="Write the fitted priors and the counts as JSON here."),
+    out: Path = typer.Option(None, "--out", help="Model directory to write priors.json and its manifest entry "
+                                                 "into (default: the shipped models/)."),
+    dry_run: bool = typer.Option(False, "--dry-run", help="Only print the rates; write nothing."),
 ) -> None:
-    """Count the world's rates of every binary latent (occlusion, part visibility, recolouring, ...) and print them
-    beside the hand-set priors; the fitted ``ScenePriors`` are the smoothed rates."""
-    import json
+    """Count the world's rates of every binary latent (occlusion, part visibility, recolouring, ...), print them
+    beside the hand-set priors, and write the fitted ``ScenePriors`` (the smoothed rates) as models/priors.json,
+    which the pipeline and `po3d eval` read."""
+    import shlex
     from dataclasses import asdict
 
     from rich.console import Console
@@ -23,7 +26,8 @@ def train_priors(
 
     from po3d_ppl.errors import InputError
     from po3d_ppl.evidence import ScenePriors
-    from po3d_ppl.perception.priors import FITTED, fit_priors
+    from po3d_ppl.model_store import models_dir, write_entry
+    from po3d_ppl.perception.priors import FITTED, MODEL_NAME, fit_priors, save_priors
     from po3d_ppl.questions.parser_examples import open_dataset
 
     dataset = open_dataset(data)
@@ -43,12 +47,18 @@ def train_priors(
     table.add_row("exists", f"{hand_set.exists:.3f}", f"{fitted.exists:.3f}", "(kept: a parser's proposals)")
     console = Console()
     console.print(table)
-    if out is not None:
-        record = {"priors": asdict(fitted), "hand_set": asdict(hand_set), "split": split, "scenes": rates.scenes,
-                  "data": str(data), "counts": {k: [v.hits, v.total] for k, v in rates.rates.items()}}
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(json.dumps(record, indent=1) + "\n")
-        console.print(f"fitted priors -> {out}", markup=False, highlight=False)
+    if dry_run:
+        return
+    directory = Path(out) if out is not None else models_dir()
+    directory.mkdir(parents=True, exist_ok=True)
+    words = ["po3d", "train", "priors", "--data", str(data), "--split", split]
+    words += ["--out", str(out)] if out is not None else []
+    write_entry(MODEL_NAME, [save_priors(fitted, directory)], directory, command=shlex.join(words),
+                data_seed=dataset.manifest.get("seed"), data_config=dataset.manifest.get("config"),
+                metrics={"scenes": rates.scenes, "hand_set": asdict(hand_set),
+                         "counts": {k: [v.hits, v.total] for k, v in rates.rates.items()}})
+    console.print(f"fitted priors -> {directory / 'priors.json'} (manifest entry {MODEL_NAME!r})", markup=False,
+                  highlight=False)
 
 
 def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:

@@ -35,8 +35,6 @@ STAGES = ("datasets", "parser", "perception", "background", "calibration", "attr
 TEST_SEED = 713
 #: The report written next to the weights.
 REPORT = "train_all.json"
-#: The fitted priors' file in --out (the shipped defaults stay hand-set).
-PRIORS_FILE = "priors.json"
 
 _DESCRIPTIONS = {
     "datasets": "po3d dataset build: rendered training and validation scenes",
@@ -47,7 +45,7 @@ _DESCRIPTIONS = {
     "attributes": "po3d train attributes: subtype, colour, material, size, part looks",
     "viewpoint": "po3d train viewpoint: azimuth network and its temperature",
     "projection": "po3d train projection: Platt scaling of the projected tables (parses val with --out's models)",
-    "priors": f"po3d train priors: the world's rates, written to {PRIORS_FILE}",
+    "priors": "po3d train priors: the world's rates, written to priors.json",
 }
 #: model name in the manifest -> (stage that writes it, what it is)
 _MODELS = {
@@ -58,6 +56,7 @@ _MODELS = {
     "attributes": ("attributes", "attribute network"),
     "viewpoint": ("viewpoint", "viewpoint network"),
     "projection_calibration": ("projection", "projection calibration"),
+    "priors": ("priors", "fitted scene priors"),
 }
 #: models each stage reads from --out (written by an earlier stage)
 _NEEDS_MODELS = {"calibration": ("perception_features", "background"),
@@ -234,7 +233,7 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
         "projection": [step("projection", train_projection_command, ["po3d", "train", "projection"], data=val,
                             **scale.projection, threads=threads, out=out, model_dir=out)],
         "priors": [step("priors", train_priors, ["po3d", "train", "priors"], data=sets("priors")[0], split="train",
-                        out=out / PRIORS_FILE)],
+                        out=out)],
     }
     return steps
 
@@ -364,8 +363,6 @@ def train_all(data: Path, out: Path, *, seed: int = 0, scale: str = "full", stag
 def _outputs(stage: str, steps: list[Step], out: Path) -> list[str]:
     if stage == "datasets":
         return [str(s.kwargs["out"]) for s in steps]
-    if stage == "priors":
-        return [str(out / PRIORS_FILE)]
     from po3d_ppl.model_store import read_manifest
 
     manifest = read_manifest(out)

@@ -41,6 +41,15 @@ class EvidenceBackend(Protocol):
         ...
 
     def evidence(self, observation: Observation) -> SceneEvidence:
+        """What is cached: the evidence before any post-hoc calibration (refitting one never re-parses images)."""
+        ...
+
+    def calibrate(self, evidence: SceneEvidence) -> SceneEvidence:
+        """The cached evidence with the back-end's post-hoc calibration applied (the identity when it has none)."""
+        ...
+
+    def provenance(self) -> dict[str, Any]:
+        """The identity plus the calibration applied after the cache: what a report records."""
         ...
 
 
@@ -76,15 +85,24 @@ class SimulatedBackend:
     def evidence(self, observation: Observation) -> SceneEvidence:
         return self._sensor(observation.index).evidence(observation.scene)
 
+    def calibrate(self, evidence: SceneEvidence) -> SceneEvidence:
+        return evidence
+
+    def provenance(self) -> dict[str, Any]:
+        return self.identity()
+
 
 @dataclass(frozen=True)
 class ImageBackend:
     """The render-and-compare parser (:func:`po3d_ppl.perception.scene_parser.parse_scene`) on each image's
-    pixels; it never reads ``observation.scene``. Its identity holds the shipped models' sha256 and every
+    pixels; it never reads ``observation.scene``. Its identity holds the perception models' sha256 and every
     setting, so retraining or retuning never reads stale cached evidence. Visible masks are dropped from the
     evidence it returns (reasoning never reads them, and they would dominate the cache: 0.3 MB per object).
-    ``calibrated_projection=False`` leaves the projected tables raw (what their calibration is fitted on);
-    ``models_dir`` reads another model directory than the shipped one (``po3d train all --out``)."""
+
+    The cache holds the evidence with its projected tables raw; :meth:`calibrate` applies the shipped projection
+    calibration after the cache (it is a per-table affine map), so refitting that calibration costs no parse.
+    ``calibrated_projection=False`` leaves the tables raw (what their calibration is fitted on); ``models_dir``
+    reads another model directory than the shipped one (``po3d train all --out``)."""
 
     name: str = "image"
     calibrated_projection: bool = True
@@ -107,26 +125,38 @@ class ImageBackend:
         evidence = self.parser.evidence(observation.image_path)
         return dataclasses.replace(evidence, masks=None)
 
+    def calibrate(self, evidence: SceneEvidence) -> SceneEvidence:
+        calibration = self._loaded[2]
+        return evidence if calibration is None else calibration.apply(evidence)
+
+    def provenance(self) -> dict[str, Any]:
+        return {**self.identity(), "post_hoc": self._loaded[3]}
+
     @property
     def parser(self):
-        """The shipped models, loaded once per back-end."""
+        """The perception models (projection uncalibrated: see :meth:`calibrate`), loaded once per back-end."""
         return self._loaded[1]
 
     @cached_property
-    def _loaded(self) -> tuple[dict[str, Any], Any]:
-        """(identity, parser), read together once: models swapped in models/ during a run change neither, so a
-        long evaluation never files one model's evidence under another's key."""
+    def _loaded(self) -> tuple[dict[str, Any], Any, Any, dict[str, Any]]:
+        """(cache identity, parser, projection calibration or None, the calibration's sha256), read together once:
+        models swapped in models/ during a run change none of them, so a long evaluation never files one model's
+        evidence under another's key."""
         import dataclasses
 
         from po3d_ppl.model_store import read_manifest
+        from po3d_ppl.perception.projection_calibration import MODEL_NAME
         from po3d_ppl.perception.scene_parser import ImageParser
 
-        used = ("perception_features", "object_calibration", "background", "attributes", "viewpoint")
-        used += ("projection_calibration",) if self.calibrated_projection else ()
         manifest = read_manifest(self.models_dir)
-        models = {name: {f: meta["sha256"] for f, meta in entry.get("files", {}).items()}
-                  for name, entry in manifest.items() if name in used}
-        parser = ImageParser.load(self.models_dir)
-        if not self.calibrated_projection:
-            parser = dataclasses.replace(parser, projection_calibration=None)
-        return {"name": self.name, "models": models, "settings": self._settings()}, parser
+
+        def shas(names: tuple[str, ...]) -> dict[str, dict[str, str]]:
+            return {name: {f: meta["sha256"] for f, meta in entry.get("files", {}).items()}
+                    for name, entry in manifest.items() if name in names}
+
+        used = ("perception_features", "object_calibration", "background", "attributes", "viewpoint")
+        parser = ImageParser.load(self.models_dir, calibrated_projection=self.calibrated_projection)
+        calibration = parser.projection_calibration
+        parser = dataclasses.replace(parser, projection_calibration=None)
+        post_hoc = shas((MODEL_NAME,)) if calibration is not None else {}
+        return {"name": self.name, "models": shas(used), "settings": self._settings()}, parser, calibration, post_hoc

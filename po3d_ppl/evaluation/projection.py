@@ -78,7 +78,7 @@ def table_figures(logodds: torch.Tensor, truth: torch.Tensor) -> dict[str, float
 def fit_projection_calibration(entries: dict[str, tuple[torch.Tensor, torch.Tensor]]
                                ) -> tuple[ProjectionCalibration, dict]:
     """The Platt scaling of every table with both outcomes present, and each table's figures before and after."""
-    platt, report = {}, {}
+    platt, base_rate, report = {}, {}, {}
     for name, (x, y) in entries.items():
         before = table_figures(x, y) if y.numel() else {"entries": 0}
         if y.numel() == 0 or y.all() or not y.any():
@@ -86,9 +86,10 @@ def fit_projection_calibration(entries: dict[str, tuple[torch.Tensor, torch.Tens
             continue
         a, b = fit_platt(x, y, unit=1.0, what=name)
         platt[name] = (a, b)
+        base_rate[name] = float(y.double().mean())
         report[name] = {"before": before, "scale": round(a, 4), "bias": round(b, 4),
                         "after": table_figures(x * a + b, y)}
-    return ProjectionCalibration(platt), report
+    return ProjectionCalibration(platt, base_rate), report
 
 
 def measure(calibration: ProjectionCalibration | None, entries: dict[str, tuple[torch.Tensor, torch.Tensor]]
@@ -101,6 +102,6 @@ def measure(calibration: ProjectionCalibration | None, entries: dict[str, tuple[
         row = {"raw": table_figures(x, y)}
         if calibration is not None and name in calibration.platt:
             a, b = calibration.platt[name]
-            row["calibrated"] = table_figures(x * a + b, y)
+            row["calibrated"] = table_figures(x * a + b, y)  # the posterior at the fitted base rate
         out[name] = row
     return out

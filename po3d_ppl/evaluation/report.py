@@ -51,6 +51,7 @@ def vqa_json(run: EvalRun) -> dict:
     families = family_table(run)
     return {
         "split": run.split, "images": run.images, "questions": len(run.records), "backend": run.backend,
+        "priors": run.priors,
         "variants": list(run.variants), "timings_s": run.timings, "evidence_cache": run.cache,
         "budget_failures": run.failures,
         "table1": table1_json(table1(run)),
@@ -78,12 +79,13 @@ def vqa_markdown(run: EvalRun, figure: str | None = None) -> str:
 
 
 def noise_sweep(dataset, split: str, noises: Sequence[float], methods: Sequence[str], *, seed: int = 0,
-                cache: EvidenceCache | None = None, limit: int | None = None,
+                cache: EvidenceCache | None = None, limit: int | None = None, priors=None,
                 progress: Callable[[float, int, int], None] | None = None) -> list[SweepPoint]:
     """Accuracy and ECE of every method at each noise level of the simulated sensor (same questions)."""
     points = []
     for noise in noises:
         run = evaluate(dataset, split, SimulatedBackend(noise, seed), methods, cache=cache, limit=limit,
+                       priors=priors,
                        progress=None if progress is None else (lambda d, t, n=noise: progress(n, d, t)))
         for variant in run.variants:
             conf, correct = top_answers(run.records, variant)

@@ -20,11 +20,13 @@ from po3d_ppl.evaluation.backends import EvidenceBackend, Observation
 from po3d_ppl.evaluation.cache import EvidenceCache
 from po3d_ppl.evaluation.difficulty import trace_difficulty
 
-#: Methods a run can ask for; ``ours`` is reported twice (given the presuppositions, and the joint).
+#: Methods a run can ask for; ``ours`` is reported twice (given the presuppositions, and the joint), and a third
+#: time, recalibrated, when the run has an answer calibration (``ours_calibrated``).
 METHODS = ("ours", "thresholded", "soft", "oracle")
 #: The reported variants, in table order.
 VARIANTS = {"ours": ("ours", "ours_joint"), "thresholded": ("thresholded",), "soft": ("soft",),
             "oracle": ("oracle",)}
+CALIBRATED = "ours_calibrated"
 #: The predicted "answer" of a distribution whose largest mass is the invalid outcome.
 INVALID = "<invalid>"
 #: The paper's Table 1 columns, in order.
@@ -42,8 +44,10 @@ def parse_methods(text: str) -> tuple[str, ...]:
     return methods
 
 
-def variants_of(methods: Sequence[str]) -> tuple[str, ...]:
-    return tuple(v for m in methods for v in VARIANTS[m])
+def variants_of(methods: Sequence[str], calibrated: bool = False) -> tuple[str, ...]:
+    """The reported variants of ``methods``; ``calibrated`` adds ``ours_calibrated`` after ``ours``."""
+    extra = {"ours": (CALIBRATED,)} if calibrated else {}
+    return tuple(v for m in methods for v in (VARIANTS[m][:1] + extra.get(m, ()) + VARIANTS[m][1:]))
 
 
 def table1_column(file: str, program: Sequence[dict]) -> str | None:
@@ -138,6 +142,8 @@ class EvalRun:
     timings: dict[str, float] = field(default_factory=dict)
     cache: dict[str, int] = field(default_factory=dict)
     failures: dict[str, int] = field(default_factory=dict)
+    #: The scene model's priors the run used (``ScenePriors`` fields).
+    priors: dict[str, float] = field(default_factory=dict)
 
 
 def split_items(dataset, split: str, files: Sequence[str] | None = None) -> dict[int, list[QuestionItem]]:
@@ -170,13 +176,19 @@ class _OnceParser:
 def evaluate(dataset, split: str, backend: EvidenceBackend, methods: Sequence[str] = METHODS, *,
              cache: EvidenceCache | None = None, limit: int | None = None, parse: bool = False, parser=None,
              priors=None, budget=None, device: str = "cpu",
-             progress: Callable[[int, int], None] | None = None, semantics: str = "intended") -> EvalRun:
+             progress: Callable[[int, int], None] | None = None, semantics: str = "intended",
+             answer_calibration=None) -> EvalRun:
     """Answer the split's questions (the first ``limit`` images) by every method on one evidence per image, under
-    ``semantics`` (``public``: the dataset must be built with it; the evidence reads the public annotation)."""
+    ``semantics`` (``public``: the dataset must be built with it; the evidence reads the public annotation).
+    With an ``answer_calibration`` (:class:`~po3d_ppl.reasoning.answer_calibration.AnswerCalibration`), ``ours``
+    is also reported recalibrated, as ``ours_calibrated``."""
+    from dataclasses import asdict
+
     from po3d_ppl.catalogue.semantics import PUBLIC, check_semantics
     from po3d_ppl.questions.public import public_reading
-    from po3d_ppl.reasoning import SceneReasoner, ScenePriors
+    from po3d_ppl.reasoning import ScenePriors, SceneReasoner
 
+    priors = priors or ScenePriors()
     public = check_semantics(semantics) == PUBLIC
 
     methods = tuple(methods)
@@ -189,26 +201,41 @@ def evaluate(dataset, split: str, backend: EvidenceBackend, methods: Sequence[st
     once = _OnceParser(parser or _default_parser()) if parse else None
     timings = {"perception_s": 0.0, "parse_s": 0.0, "posterior_s": 0.0,
                **{f"inference_{m}_s": 0.0 for m in methods if m != "oracle"}}
-    failures = {v: 0 for v in variants_of(methods)}
+    variants = variants_of(methods, answer_calibration is not None)
+    failures = {v: 0 for v in variants}
     records: list[QuestionRecord] = []
     identity = {**backend.identity(), "semantics": semantics} if public else backend.identity()
     for done, index in enumerate(images):
         scene = dataset.scene(index)
         observation = Observation(index, dataset.image_path(index), public_reading(scene) if public else scene)
         start = time.perf_counter()
-        evidence = cache.get(observation.image_path, identity, lambda: backend.evidence(observation),
-                             device=device)
+        evidence = backend.calibrate(cache.get(observation.image_path, identity,
+                                               lambda: backend.evidence(observation), device=device))
         timings["perception_s"] += time.perf_counter() - start
-        reasoner = SceneReasoner(evidence, priors or ScenePriors(), semantics)
+        reasoner = SceneReasoner(evidence, priors, semantics)
         start = time.perf_counter()
         reasoner.posteriors  # computed once here, so the per-question timings are reasoning alone
         timings["posterior_s"] += time.perf_counter() - start
         for item in by_image[index]:
-            records.append(_answer(item, scene, reasoner, methods, once, budget, timings, failures, semantics))
+            record = _answer(item, scene, reasoner, methods, once, budget, timings, failures, semantics)
+            if answer_calibration is not None and "ours" in record.predictions:
+                record.predictions[CALIBRATED] = _recalibrated(record, answer_calibration)
+                failures[CALIBRATED] += record.predictions["ours"].failure is not None
+            records.append(record)
         if progress is not None:
             progress(done + 1, len(images))
-    return EvalRun(records, variants_of(methods), backend.identity(), split, len(images), timings,
-                   {"hits": cache.hits, "misses": cache.misses}, failures)
+    return EvalRun(records, variants, backend.provenance(), split, len(images), timings,
+                   {"hits": cache.hits, "misses": cache.misses}, failures, asdict(priors))
+
+
+def _recalibrated(record: QuestionRecord, calibration) -> Prediction:
+    from po3d_ppl.reasoning import AnswerDistribution
+
+    ours = record.predictions["ours"]
+    if not ours.probs:
+        return ours
+    dist = AnswerDistribution(dict(ours.probs), ours.invalid, "ours", record.answer_type)
+    return Prediction.of(calibration.apply(dist))
 
 
 def _default_parser():

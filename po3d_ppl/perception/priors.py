@@ -6,16 +6,23 @@ rate is counted exactly as the simulated sensor reads the latent (:mod:`po3d_ppl
 ground-truth scenes of a training split, with add-one smoothing so that every prior stays in (0, 1).
 
 ``exists`` is not a property of scenes but of a parser's proposals (how many it makes that are not objects): it
-keeps its hand-set value until the render-and-compare parser's proposals can be counted.
+keeps its hand-set value (0.5: the object calibration's existence log-odds are a posterior at that prior).
+
+The fitted priors ship as ``models/priors.json`` (a manifest entry with its sha256, like every model); the pipeline
+and the evaluation read them with :func:`load_priors`. Perception's tables are likelihoods (the attribute network
+divides its training rates out, the projection calibration its base rates), so these priors are the one place the
+world's rates enter.
 """
 
 from __future__ import annotations
 
+import json
 from collections.abc import Iterable
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, fields, replace
+from pathlib import Path
 
 from po3d_ppl import ontology
-from po3d_ppl.errors import InputError
+from po3d_ppl.errors import InputError, ModelFileError
 from po3d_ppl.evidence import ScenePriors
 from po3d_ppl.perception.simulated import part_visible
 from po3d_ppl.world.scene import Scene
@@ -84,3 +91,35 @@ def fit_priors(scenes: Iterable[Scene], base: ScenePriors = ScenePriors()) -> tu
     """(``base`` with the world's rates, the counts behind them)."""
     rates = count_rates(scenes)
     return rates.priors(base), rates
+
+
+MODEL_NAME = "priors"
+PRIORS_FILE = "priors.json"
+RETRAIN = "refit them with `po3d train priors --data /work/data/perc_train_s711` or `git checkout models/`"
+
+
+def save_priors(priors: ScenePriors, directory: Path) -> Path:
+    """Write ``priors`` as ``directory/priors.json`` (the caller records it in the manifest)."""
+    path = Path(directory) / PRIORS_FILE
+    path.write_text(json.dumps(asdict(priors), indent=1) + "\n")
+    return path
+
+
+def load_priors(directory: Path | str | None = None) -> ScenePriors:
+    """The fitted priors of ``directory`` (default: the shipped models), checked against the manifest's sha256;
+    the hand-set ``ScenePriors()`` when none are listed."""
+    from po3d_ppl.model_store import model_files, read_manifest
+
+    directory = Path(directory) if directory is not None else None
+    if MODEL_NAME not in read_manifest(directory):
+        return ScenePriors()
+    path = model_files(MODEL_NAME, directory, RETRAIN)[PRIORS_FILE]
+    try:
+        values = json.loads(path.read_text())
+        known = {f.name for f in fields(ScenePriors)}
+        unknown = set(values) - known
+        if unknown:
+            raise ValueError(f"unknown fields {sorted(unknown)}")
+        return ScenePriors(**{k: float(v) for k, v in values.items()})
+    except (ValueError, TypeError, AttributeError, InputError) as exc:
+        raise ModelFileError(f"cannot read the priors from {path} ({exc}); {RETRAIN}") from None

@@ -7,6 +7,13 @@ makes many of them wrong together. How often an entry at the floor is right is a
 answered per table on a validation seed (ground truth is read there only, by
 :func:`po3d_ppl.evaluation.projection.fit_projection_calibration`), and the scene parser applies the fitted
 scaling to every image (``ImageParser.load`` reads ``models/projection_calibration.safetensors`` when shipped).
+
+**Likelihoods, not posteriors.** Platt scaling fits ``P(event | log-odds)`` on the validation entries, a posterior
+that already holds those entries' base rate. The scene model adds its own prior (``ScenePriors``) to every table,
+so the evidence must be a likelihood ratio: the fitted base rate's log-odds are subtracted
+(``a * logodds + b - logit(base_rate)``). With the world's rates as priors (``po3d train priors``) the scene
+model's posterior of an entry is then the fitted one, instead of counting the base rate twice (with the hand-set
+part-occluder prior 0.05 that double count pushed every part-occlusion posterior down by 3 nats).
 """
 
 from __future__ import annotations
@@ -23,6 +30,9 @@ from po3d_ppl.evidence import SceneEvidence
 
 MODEL_NAME = "projection_calibration"
 WEIGHTS = "projection_calibration.safetensors"
+#: 2: ``[scale, bias, base_rate]`` per table (1 had no base rate: posteriors, which the scene model's prior
+#: counted twice).
+FORMAT = "2"
 RETRAIN = "refit it with `po3d train projection --data VAL` (a validation dataset) or `git checkout models/`"
 #: The binary tables of the contract that the projection fills.
 TABLES = ("occluded_logodds", "occludes_logodds", "part_visible_logodds", "part_occluded_logodds",
@@ -31,9 +41,11 @@ TABLES = ("occluded_logodds", "occludes_logodds", "part_visible_logodds", "part_
 
 @dataclass(frozen=True)
 class ProjectionCalibration:
-    """``(scale, bias)`` per table of ``TABLES``; a table not listed is left as it is."""
+    """``(scale, bias)`` per table of ``TABLES``, and the base rate of the entries it was fitted on (divided out:
+    see the module docstring); a table not listed is left as it is."""
 
     platt: dict[str, tuple[float, float]] = field(default_factory=dict)
+    base_rate: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         for name, (scale, bias) in self.platt.items():
@@ -42,13 +54,23 @@ class ProjectionCalibration:
             if not (math.isfinite(scale) and math.isfinite(bias) and scale > 0):
                 raise InputError("ProjectionCalibration", f"{name}: scale must be > 0 and both finite, got "
                                                           f"{(scale, bias)}")
+        for name, rate in self.base_rate.items():
+            if name not in self.platt or not 0.0 < rate < 1.0:
+                raise InputError("ProjectionCalibration", f"{name}: a base rate needs a fitted table and a value "
+                                                          f"in (0, 1), got {rate}")
+
+    def prior_logodds(self, name: str) -> float:
+        """The log-odds of the base rate divided out of table ``name`` (0 when none was recorded: a rate of 0.5)."""
+        rate = self.base_rate.get(name)
+        return 0.0 if rate is None else math.log(rate / (1.0 - rate))
 
     def apply(self, evidence: SceneEvidence) -> SceneEvidence:
-        """The evidence with every calibrated table rescaled (``occludes`` keeps its ignored diagonal at 0)."""
+        """The evidence with every calibrated table rescaled to a likelihood ratio (``occludes`` keeps its ignored
+        diagonal at 0)."""
         changes = {}
         for name, (scale, bias) in self.platt.items():
             table = getattr(evidence, name)
-            scaled = table * scale + bias
+            scaled = table * scale + bias - self.prior_logodds(name)
             if name == "occludes_logodds" and table.numel():
                 scaled = scaled * (1 - torch.eye(table.shape[0], dtype=table.dtype, device=table.device))
             changes[name] = scaled
@@ -58,13 +80,15 @@ class ProjectionCalibration:
         from safetensors.torch import save_file
 
         path = Path(directory) / WEIGHTS
-        tensors = {name: torch.tensor(list(values), dtype=torch.float64) for name, values in self.platt.items()}
-        save_file(tensors, str(path), metadata={"format": "1"})
+        tensors = {name: torch.tensor([*values, self.base_rate.get(name, 0.5)], dtype=torch.float64)
+                   for name, values in self.platt.items()}
+        save_file(tensors, str(path), metadata={"format": FORMAT})
         path.chmod(0o644)
         return path
 
     def to_dict(self) -> dict[str, list[float]]:
-        return {name: list(values) for name, values in self.platt.items()}
+        """``{table: [scale, bias, base_rate]}``."""
+        return {name: [*values, self.base_rate.get(name)] for name, values in self.platt.items()}
 
 
 def load_projection_calibration(directory: Path | str | None = None) -> ProjectionCalibration | None:
@@ -74,8 +98,9 @@ def load_projection_calibration(directory: Path | str | None = None) -> Projecti
     directory = Path(directory) if directory is not None else models_dir()
     if MODEL_NAME not in read_manifest(directory):
         return None
-    path, _, tensors = load_tensors(MODEL_NAME, directory, RETRAIN, "1")
+    path, _, tensors = load_tensors(MODEL_NAME, directory, RETRAIN, FORMAT)
     try:
-        return ProjectionCalibration({name: (float(v[0]), float(v[1])) for name, v in tensors.items()})
+        return ProjectionCalibration({name: (float(v[0]), float(v[1])) for name, v in tensors.items()},
+                                     {name: float(v[2]) for name, v in tensors.items()})
     except (ValueError, IndexError, TypeError, InputError) as exc:
         raise ModelFileError(f"cannot load the projection calibration from {path} ({exc}); {RETRAIN}") from None

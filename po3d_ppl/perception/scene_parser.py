@@ -476,10 +476,12 @@ class ImageParser:
     name = "render-and-compare"
 
     @classmethod
-    def load(cls, models_dir=None, device=None, config: SceneParserConfig | None = None) -> ImageParser:
+    def load(cls, models_dir=None, device=None, config: SceneParserConfig | None = None,
+             calibrated_projection: bool = True) -> ImageParser:
         """The shipped models (or those of ``models_dir``), each checked against its sha256; the attribute and
         viewpoint networks and the projection calibration only if listed in the manifest (otherwise their tables
-        stay uninformative, the pose table is render-and-compare's alone, the projected tables keep their floor)."""
+        stay uninformative, the pose table is render-and-compare's alone, the projected tables keep their floor).
+        ``calibrated_projection=False`` does not read the projection calibration (refitting it reads raw tables)."""
         from po3d_ppl.model_store import read_manifest
         from po3d_ppl.perception.neural_mesh import load_feature_model
 
@@ -499,7 +501,8 @@ class ImageParser:
         from po3d_ppl.perception.projection_calibration import load_projection_calibration
 
         return cls(load_feature_model(models_dir, device), attributes, config or SceneParserConfig(), viewpoint,
-                   load_projection_calibration(models_dir), load_calibration(models_dir), load_background(models_dir))
+                   load_projection_calibration(models_dir) if calibrated_projection else None,
+                   load_calibration(models_dir), load_background(models_dir))
 
     def parse(self, image) -> ParsedScene:
         return parse_scene(image, object_model=self.object_model, attributes=self.attributes,
