@@ -107,8 +107,9 @@ def load_pipeline(models_dir: str | Path | None = None, device: str | None = Non
     from po3d_ppl.reasoning.answer_calibration import load_answer_calibration
 
     device = device or "cpu"
-    return Pipeline(ImageParser.load(models_dir, device), QuestionParser.load(models_dir, device=device),
-                    load_priors(models_dir), load_answer_calibration(models_dir))
+    perception = ImageParser.load(models_dir, device)
+    return Pipeline(perception, QuestionParser.load(models_dir, device=device),
+                    perception.scene_priors(load_priors(models_dir)), load_answer_calibration(models_dir))
 
 
 @lru_cache(maxsize=1)

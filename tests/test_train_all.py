@@ -13,7 +13,7 @@ import pytest
 from typer.testing import CliRunner
 
 from po3d_ppl.cli import app, main
-from po3d_ppl.cli.train_all import FULL, PRIORS_FILE, REPORT, SCALES, STAGES, TEST_SEED, TINY, plan
+from po3d_ppl.cli.train_all import FULL, REPORT, SCALES, STAGES, TEST_SEED, TINY, plan
 from po3d_ppl.model_store import models_dir, read_manifest, sha256_file
 
 #: every model the chain writes (manifest name -> files)
@@ -25,6 +25,7 @@ MODELS = {
     "attributes": ("attributes.safetensors",),
     "viewpoint": ("viewpoint.safetensors",),
     "projection_calibration": ("projection_calibration.safetensors",),
+    "priors": ("priors.json",),
 }
 
 
@@ -49,8 +50,8 @@ def test_tiny_chain_writes_every_model_with_its_sha256(tiny_chain):
         for filename in files:
             assert entry["files"][filename]["sha256"] == sha256_file(out / filename), filename
         assert entry["command"].startswith("po3d train "), name
-    priors = json.loads((out / PRIORS_FILE).read_text())
-    assert priors["split"] == "train" and priors["scenes"] > 0
+    priors = manifest["priors"]
+    assert "--split train" in priors["command"] and priors["metrics"]["scenes"] > 0
     assert sorted(p.name for p in data.iterdir() if p.name != "attribute_crops") == sorted(d.name for d in
                                                                                          TINY.datasets)
     assert all(json.loads((data / d.name / "manifest.json").read_text())["seed"] == d.seed for d in TINY.datasets)

@@ -68,7 +68,8 @@ def answer(
         from po3d_ppl.perception.scene_parser import ImageParser
         from po3d_ppl.reasoning.answer_calibration import load_answer_calibration
 
-        reasoner = SceneReasoner(ImageParser.load().evidence(image), priors, semantics=semantics)
+        perception = ImageParser.load()
+        reasoner = SceneReasoner(perception.evidence(image), perception.scene_priors(priors), semantics=semantics)
         calibration = load_answer_calibration()  # fitted on perception's evidence: for images only
     else:
         truth = load_scene_arg(scene, index)

@@ -73,7 +73,8 @@ def demo(
         from po3d_ppl.perception.scene_parser import ImageParser
 
         with console.status("parsing the image (render-and-compare, parts by projection)..."):
-            parsed = ImageParser.load().parse(rendered.image)
+            perception = ImageParser.load()
+            parsed = perception.parse(rendered.image)
         cv2.imwrite(str(out / "overlay.png"), draw_overlay(rendered.image, parsed.proposals)[..., ::-1])
         console.print(f"perception: {parsed.evidence.num_objects} objects found in {parsed.timings['total']:.1f} s "
                       f"-> {out / 'overlay.png'}", markup=False, highlight=False)
@@ -81,7 +82,7 @@ def demo(
             console.print(f"  note: {note}", markup=False, highlight=False)
         from po3d_ppl.reasoning.answer_calibration import load_answer_calibration
 
-        reasoner = SceneReasoner(parsed.evidence, priors)
+        reasoner = SceneReasoner(parsed.evidence, perception.scene_priors(priors))
         calibration = load_answer_calibration()  # fitted on perception's evidence: for images only
         source = "perception on the image"
     else:

@@ -192,11 +192,14 @@ def eval_evidence_command(
     from po3d_ppl.evaluation.evidence_scores import EvidenceCounts
     from po3d_ppl.evaluation.objects import EvidenceAsProposals, score_image, summarise
     from po3d_ppl.evaluation.projection import as_tensors, measure
+    from po3d_ppl.perception.priors import load_priors
 
     torch.set_num_threads(threads)
     console = Console()
-    counts, outcomes, store = EvidenceCounts(), [], _evidence_cache(data, cache)
-    for evidence, scene in _cached_evidence(data, split, limit, store, ImageBackend(), console, "evidence"):
+    backend = ImageBackend()
+    counts, outcomes = EvidenceCounts(priors=backend.scene_priors(load_priors())), []
+    store = _evidence_cache(data, cache)
+    for evidence, scene in _cached_evidence(data, split, limit, store, backend, console, "evidence"):
         counts.add(evidence, scene)
         outcomes.append(score_image(EvidenceAsProposals.of(evidence), scene, scene.image_filename, 0.0))
     figures = {"evidence": counts.figures(), "objects": summarise(outcomes),

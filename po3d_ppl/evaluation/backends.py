@@ -15,7 +15,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from po3d_ppl.errors import InputError
-from po3d_ppl.evidence import SceneEvidence
+from po3d_ppl.evidence import SceneEvidence, ScenePriors
 from po3d_ppl.perception import SimulatedSensor
 from po3d_ppl.world.scene import Scene
 
@@ -50,6 +50,10 @@ class EvidenceBackend(Protocol):
 
     def provenance(self) -> dict[str, Any]:
         """The identity plus the calibration applied after the cache: what a report records."""
+        ...
+
+    def scene_priors(self, priors: ScenePriors) -> ScenePriors:
+        """The scene model's priors for this back-end's proposals (``priors`` where it knows no better)."""
         ...
 
 
@@ -91,6 +95,14 @@ class SimulatedBackend:
     def provenance(self) -> dict[str, Any]:
         return self.identity()
 
+    def scene_priors(self, priors: ScenePriors) -> ScenePriors:
+        return priors  # the sensor reads every object of the scene: the world's rates
+
+
+#: Bumped whenever the code that turns the models' outputs into evidence changes (cached evidence of an older
+#: version is then never read). 2: part style tables as likelihoods (the log 16 of ``AttributeNet.style_loglik``).
+EVIDENCE_VERSION = 2
+
 
 @dataclass(frozen=True)
 class ImageBackend:
@@ -114,7 +126,8 @@ class ImageBackend:
         from po3d_ppl.perception.object_parser import ParserConfig
         from po3d_ppl.perception.scene_parser import SceneParserConfig
 
-        return {"object_parser": asdict(ParserConfig()), "scene_parser": asdict(SceneParserConfig())}
+        return {"object_parser": asdict(ParserConfig()), "scene_parser": asdict(SceneParserConfig()),
+                "evidence_version": EVIDENCE_VERSION}
 
     def identity(self) -> dict[str, Any]:
         return self._loaded[0]
@@ -131,6 +144,10 @@ class ImageBackend:
 
     def provenance(self) -> dict[str, Any]:
         return {**self.identity(), "post_hoc": self._loaded[3]}
+
+    def scene_priors(self, priors: ScenePriors) -> ScenePriors:
+        calibration = self._loaded[2]
+        return priors if calibration is None else calibration.proposal_priors(priors)
 
     @property
     def parser(self):

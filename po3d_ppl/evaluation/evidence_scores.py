@@ -2,7 +2,8 @@
 
 Ground truth is read here only. Proposals are matched to objects by box IoU >= 0.5 (as in
 :mod:`po3d_ppl.evaluation.objects`); every figure below is over matched objects, read at the argmax (or at
-log-odds 0) of the evidence tables:
+log-odds 0) of each table's posterior on its own: the table (a likelihood) plus the scene model's prior
+(``priors``; the shipped, world-fitted ones in ``po3d eval evidence``):
 
 - object subtype, colour, material and size accuracy;
 - part attribute accuracy over the visible parts of the true subtype (the world's rule: recoloured, or >= 20
@@ -13,13 +14,28 @@ log-odds 0) of the evidence tables:
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from dataclasses import dataclass, field
 
 import numpy as np
+import torch
 
 from po3d_ppl import ontology
 from po3d_ppl.evaluation.objects import match_boxes
+from po3d_ppl.evidence import ScenePriors
+from po3d_ppl.perception.projection_calibration import TABLE_PRIOR
+
+
+def prior_logodds(priors: ScenePriors, table: str) -> float:
+    p = getattr(priors, TABLE_PRIOR[table])
+    return math.log(p / (1.0 - p))
+
+
+def visible_style_log_prior(priors: ScenePriors) -> torch.Tensor:
+    """log P(style | visible) over the 17 styles: plain, or recoloured in one of 16 looks."""
+    states = priors.part_state_probs()[1:]
+    return torch.log(states / states.sum())
 
 
 @dataclass
@@ -30,6 +46,7 @@ class EvidenceCounts:
 
     counts: Counter = field(default_factory=Counter)
     entries: dict[str, tuple[list[float], list[bool]]] = field(default_factory=dict)
+    priors: ScenePriors = field(default_factory=ScenePriors)
 
     def add(self, evidence, scene, min_iou: float = 0.5) -> None:
         from po3d_ppl.evaluation.projection import table_entries
@@ -37,6 +54,7 @@ class EvidenceCounts:
         from po3d_ppl.perception.simulated import part_visible
 
         c = self.counts
+        style_prior = visible_style_log_prior(self.priors).to(evidence.part_style_loglik.dtype)
         objs = scene.objects
         boxes = np.array([o.annotation.bbox for o in objs], dtype=np.float64).reshape(-1, 4)
         if evidence.boxes is None:
@@ -58,7 +76,7 @@ class EvidenceCounts:
                 c["visible_parts"] += 1
                 style = o.parts.get(raw)
                 truth = style_index(style.color, style.material) if style else 0
-                said = int(evidence.part_style_loglik[i, s, p].argmax())
+                said = int((evidence.part_style_loglik[i, s, p] + style_prior).argmax())
                 c["part_style_ok"] += said == truth
                 c["part_look_ok"] += (said > 0) == (truth > 0)
                 if truth > 0:
@@ -67,6 +85,8 @@ class EvidenceCounts:
                     c["part_color_ok"] += int(STATE_COLOR[state]) == ontology.COLORS.index(style.color)
                     c["part_material_ok"] += int(STATE_MATERIAL[state]) == ontology.MATERIALS.index(style.material)
         for name, (values, truths) in table_entries(evidence, scene, min_iou).items():
+            prior = prior_logodds(self.priors, name)
+            values = [v + prior for v in values]  # the entry's posterior log-odds
             kept = self.entries.setdefault(name, ([], []))
             kept[0].extend(values)
             kept[1].extend(truths)

@@ -188,7 +188,7 @@ def evaluate(dataset, split: str, backend: EvidenceBackend, methods: Sequence[st
     from po3d_ppl.questions.public import public_reading
     from po3d_ppl.reasoning import ScenePriors, SceneReasoner
 
-    priors = priors or ScenePriors()
+    priors = backend.scene_priors(priors or ScenePriors())
     public = check_semantics(semantics) == PUBLIC
 
     methods = tuple(methods)

@@ -34,6 +34,7 @@ Code runs on any device (inputs are moved to the module's). Loading goes through
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -486,13 +487,17 @@ class AttributeNet(nn.Module):
     def style_loglik(self, part_logp: Mapping[str, torch.Tensor]) -> torch.Tensor:
         """The 17 styles of the contract (0 plain, ``style_index(colour, material)`` recoloured) as a normalised
         log-likelihood ``[M, 17]``: log p(look | crop) minus the log training frequency of the look, plus the
-        conditional colour and material log-probabilities."""
+        conditional colour and material log-probabilities, plus log 16.
+
+        The colour and material heads give posteriors under a uniform prior over the 16 looks (they sum to 1 over
+        them), so a look's likelihood is 16 times its posterior share: without that factor, the scene model's
+        prior (recoloured r, spread as r / 16 per look) would weigh "recoloured" 16 times too low."""
         look = part_logp["recoloured"] - self.part_prior.log()
         out = look.new_empty((look.shape[0], NUM_STYLES))
         out[:, 0] = look[:, 0]
         cols = STYLE_COLUMN.to(look.device)
         out[:, cols] = (look[:, 1:2] + part_logp["color"][:, STYLE_COLOR.to(look.device)]
-                        + part_logp["material"][:, STYLE_MATERIAL.to(look.device)])
+                        + part_logp["material"][:, STYLE_MATERIAL.to(look.device)] + math.log(NUM_STYLES - 1))
         return torch.log_softmax(out, -1)
 
     @torch.no_grad()

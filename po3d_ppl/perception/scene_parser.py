@@ -36,7 +36,7 @@ import torch
 
 from po3d_ppl import ontology
 from po3d_ppl.errors import InputError
-from po3d_ppl.evidence import DTYPE, NUM_STYLES, P, S, SceneEvidence
+from po3d_ppl.evidence import DTYPE, NUM_STYLES, P, S, SceneEvidence, ScenePriors
 from po3d_ppl.perception.alignment import AlignmentConfig, align_silhouette
 from po3d_ppl.perception.image_input import ImageInput, load_image, project_points
 from po3d_ppl.perception.object_parser import parse_objects, yaw_of
@@ -503,6 +503,12 @@ class ImageParser:
         return cls(load_feature_model(models_dir, device), attributes, config or SceneParserConfig(), viewpoint,
                    load_projection_calibration(models_dir) if calibrated_projection else None,
                    load_calibration(models_dir), load_background(models_dir))
+
+    def scene_priors(self, priors: ScenePriors) -> ScenePriors:
+        """The scene model's priors for this parser's proposals: ``priors`` (the world's) with the projected
+        tables' priors at their calibration's base rates (:meth:`ProjectionCalibration.proposal_priors`)."""
+        calibration = self.projection_calibration
+        return priors if calibration is None else calibration.proposal_priors(priors)
 
     def parse(self, image) -> ParsedScene:
         return parse_scene(image, object_model=self.object_model, attributes=self.attributes,

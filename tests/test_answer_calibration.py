@@ -1,0 +1,92 @@
+"""Answer calibration: the map (monotone, mass-preserving, smoothing over the type's answers), its file, and a fit
+that recovers the overconfidence of a simulated run."""
+
+from __future__ import annotations
+
+import random
+
+import pytest
+
+from po3d_ppl.errors import InputError, ModelFileError
+from po3d_ppl.evaluation.answer_calibration import fit
+from po3d_ppl.evaluation.calibration import calibration_report
+from po3d_ppl.evaluation.runner import CALIBRATED, Prediction, QuestionItem, QuestionRecord, _recalibrated, variants_of
+from po3d_ppl.reasoning import AnswerDistribution
+from po3d_ppl.reasoning.answer_calibration import (
+    AnswerCalibration,
+    TypeCalibration,
+    answer_support,
+    load_answer_calibration,
+)
+
+
+def _dist(probs: dict, answer_type: str, invalid: float = 0.0) -> AnswerDistribution:
+    return AnswerDistribution(probs, invalid, "auto", answer_type)
+
+
+def test_apply_is_monotone_keeps_the_mass_and_smooths_over_the_support():
+    calibration = AnswerCalibration({"Color": TypeCalibration(2.0, 0.2)})
+    dist = _dist({"red": 0.6, "blue": 0.3}, "Color", invalid=0.1)
+    out = calibration.apply(dist)
+    assert sum(out.probs.values()) == pytest.approx(0.9)  # the invalid mass is untouched
+    assert out.invalid == 0.1 and out.top == "red"
+    assert set(out.probs) == set(answer_support("Color", []))  # every colour gets a share of the smoothing
+    assert out.probs["red"] < 0.6 and out.probs["blue"] > 0.3  # T > 1 flattens
+    assert out.probs["green"] == pytest.approx(0.9 * 0.2 / 8)
+    sharp = AnswerCalibration({"Color": TypeCalibration(0.5, 0.0)}).apply(dist)
+    assert sharp.probs["red"] > 0.6 * 1.0 and "green" not in sharp.probs  # T < 1 sharpens; no smoothing, no new answers
+    assert calibration.apply(_dist({True: 1.0}, "Bool")) == _dist({True: 1.0}, "Bool")  # type not listed
+
+
+def test_integer_support_reaches_the_largest_count():
+    assert answer_support("Integer", [3]) == list(range(11))
+    assert answer_support("Integer", [14])[-1] == 14
+    out = AnswerCalibration({"Integer": TypeCalibration(1.0, 0.1)}).apply(_dist({2: 1.0}, "Integer"))
+    assert out.probs[0] == pytest.approx(0.1 / 11) and out.probs[2] == pytest.approx(0.9 + 0.1 / 11)
+
+
+def test_bad_parameters_and_files_are_typed_errors(tmp_path):
+    from po3d_ppl.model_store import write_entry
+    from po3d_ppl.reasoning.answer_calibration import FILE, MODEL_NAME
+
+    with pytest.raises(InputError, match="temperature"):
+        TypeCalibration(0.0, 0.1)
+    with pytest.raises(InputError, match="smoothing"):
+        TypeCalibration(1.0, 1.0)
+    assert load_answer_calibration(tmp_path) is None
+    calibration = AnswerCalibration({"Bool": TypeCalibration(1.5, 0.3), "Integer": TypeCalibration(2.0, 0.1)})
+    write_entry(MODEL_NAME, [calibration.save(tmp_path)], tmp_path, command="test")
+    assert load_answer_calibration(tmp_path) == calibration
+    (tmp_path / FILE).write_text((tmp_path / FILE).read_text().replace("1.5", "2.5"))
+    with pytest.raises(ModelFileError, match="sha256"):
+        load_answer_calibration(tmp_path)
+
+
+def _overconfident_records(n: int, seed: int) -> list[QuestionRecord]:
+    """Bool questions answered with confidence 0.95 that are right 75% of the time, and colour questions whose
+    truth sometimes has no mass at all (as a missed object does)."""
+    rng = random.Random(seed)
+    records = []
+    for i in range(n):
+        truth = rng.random() < 0.5
+        said = truth if rng.random() < 0.75 else not truth
+        item = QuestionItem("core", "f:0", i, 0, "q", (), truth, "CLEVR core")
+        records.append(QuestionRecord(item, "Bool", {"ours": Prediction(((said, 0.95), (not said, 0.05)), 0.0)}))
+        colour = rng.choice(["red", "blue", "green"])
+        said = colour if rng.random() < 0.8 else "gray"
+        item = QuestionItem("core", "f:1", i, 1, "q", (), colour, "CLEVR core")
+        records.append(QuestionRecord(item, "Color", {"ours": Prediction(((said, 1.0),), 0.0)}))
+    return records
+
+
+def test_fit_recovers_overconfidence_and_the_calibrated_variant_is_better_on_new_records():
+    calibration, report = fit(_overconfident_records(400, 0))
+    assert report["Bool"]["nll_after"] < report["Bool"]["nll_before"]
+    assert calibration.types["Color"].smoothing > 0  # a temperature alone cannot reach a truth with no mass
+    held_out = _overconfident_records(400, 1)
+    for record in held_out:
+        record.predictions[CALIBRATED] = _recalibrated(record, calibration)
+    raw, calibrated = calibration_report(held_out, "ours"), calibration_report(held_out, CALIBRATED)
+    assert calibrated.accuracy == raw.accuracy  # monotone: the top answer never changes
+    assert calibrated.ece < 0.05 < raw.ece
+    assert variants_of(("ours", "soft"), calibrated=True) == ("ours", CALIBRATED, "ours_joint", "soft")
