@@ -66,3 +66,14 @@ def test_calibration_helpers():
     assert "What color is the big red car?" in texts and len(texts) > 5
     assert expected_calibration_error([1.0, 1.0], [True, True]) < 1e-5
     assert abs(expected_calibration_error([0.9, 0.9], [True, False]) - 0.4) < 1e-9
+
+
+def test_other_names_of_parts_and_shapes():
+    from po3d_ppl.language import lexicon as lx
+
+    assert "boot" in lx.part_forms("trunk") and "kickstand" in lx.part_forms("side_stand")
+    assert "rear number plate" in lx.part_forms("back_license_plate")
+    assert "left head lamp" not in lx.part_forms("head_light_left")  # shared with the motorbike's value ...
+    assert "left head lamp" in lx.part_forms_for_category("head_light_left", "car")  # ... so the owner decides
+    assert "coach" in lx.shape_forms("bus") and "estate car" in lx.shape_forms("wagon")
+    assert {"boot", "kickstand", "coach", "entity"} <= lx.lexicon_words()

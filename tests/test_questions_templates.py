@@ -205,7 +205,7 @@ def test_parser_corpus_covers_every_family_with_typed_programs_and_is_determinis
     from po3d_ppl.questions.parser_corpus import CorpusConfig, corpus_families, generate_corpus
 
     families = corpus_families()
-    assert len(families) == 61 + 25 + 8 + 90 + 16
+    assert len(families) == 61 + 25 + 8 + 90 + 16 + 17
     a = generate_corpus(400, CorpusConfig(seed=5))
     b = generate_corpus(400, CorpusConfig(seed=5))
     assert [(e.question, program_to_tokens(e.program)) for e in a] == [
@@ -236,7 +236,7 @@ def test_the_realiser_speaks_the_public_forms():
 
     seen = set()
     program = parse_program("count(scene() | filter_shape[road] | unique | relate[behind] | filter_size[small])")
-    for seed in range(200):
+    for seed in range(400):
         seen.add(Realiser(np.random.default_rng(seed)).question(program).lower())
     assert any(q.startswith("there is a road bike; how many small") and q.endswith("behind it?") for q in seen)
     plural = parse_program("scene() | filter_shape[bus] | count")

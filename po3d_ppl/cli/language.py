@@ -327,8 +327,12 @@ def eval_language_command(
         from po3d_ppl.language.seq2seq.model_io import MODEL_NAME
         from po3d_ppl.model_store import models_dir, record_metrics
 
-        key = (f"independent{'' if unknown_words else '_no_unknown_words'}" if independent is not None
-               else f"corpus_seed{corpus_seed}_template{template_text:g}")
+        if independent is not None:  # the held-out set records as "independent", any other set by its folder
+            name = Path(independent).resolve().name
+            base = "independent" if name == "independent_questions" else f"set_{name}"
+            key = f"{base}{'' if unknown_words else '_no_unknown_words'}"
+        else:
+            key = f"corpus_seed{corpus_seed}_template{template_text:g}"
         summary = {k: report[k] for k in ("count", "accuracy", "exact_match", "ece", "mean_confidence")}
         summary["per_group"] = {g: {k: r[k] for k in ("count", "accuracy", "exact_match")}
                                 for g, r in report["per_group"].items()}

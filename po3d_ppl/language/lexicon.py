@@ -32,28 +32,30 @@ ATTRIBUTE_FORMS: MappingProxyType = MappingProxyType({
 })
 
 #: Nouns for "any object" (the null shape).
-THING_FORMS: tuple[str, ...] = ("thing", "object", "vehicle", "item")
-THING_PLURALS: tuple[str, ...] = ("things", "objects", "vehicles", "items")
+THING_FORMS: tuple[str, ...] = ("thing", "object", "vehicle", "item", "entity")
+THING_PLURALS: tuple[str, ...] = ("things", "objects", "vehicles", "items", "entities")
 
 #: Category words (hypernyms) and their synonyms.
 _CATEGORY_FORMS = {
     "car": ("car", "automobile"),
-    "bus": ("bus",),
+    "bus": ("bus", "coach"),
     "motorbike": ("motorbike", "motorcycle", "motor bike"),
     "aeroplane": ("aeroplane", "airplane", "plane", "aircraft"),
-    "bicycle": ("bicycle", "bike", "cycle"),
+    "bicycle": ("bicycle", "bike", "cycle", "push bike", "pedal bike"),
 }
 #: Subtype forms beyond the public word (``ontology.SUBTYPE_WORDS``).
 _SUBTYPE_EXTRA = {
-    "suv": ("suv",), "wagon": ("wagon", "station wagon"), "minivan": ("minivan", "mini van"),
-    "sedan": ("sedan",), "truck": ("truck", "pickup truck"),
-    "articulated": ("articulated bus", "articulated", "bendy bus"), "regular": ("regular bus",),
+    "suv": ("suv", "sport utility vehicle"), "wagon": ("wagon", "station wagon", "estate car", "estate"),
+    "minivan": ("minivan", "mini van", "people carrier"),
+    "sedan": ("sedan", "saloon", "saloon car"), "truck": ("truck", "pickup truck"),
+    "articulated": ("articulated bus", "articulated", "bendy bus"), "regular": ("regular bus", "normal bus", "ordinary bus", "standard bus", "city bus"),
     "double": ("double bus", "double decker bus", "double decker", "double-decker bus"),
     "school": ("school bus", "schoolbus"),
-    "chopper": ("chopper", "chopper motorbike"), "dirtbike": ("dirtbike", "dirt bike"),
+    "chopper": ("chopper", "chopper motorbike"),
+    "dirtbike": ("dirtbike", "dirt bike", "off-road motorbike", "off road bike", "motocross bike", "trail bike"),
     "scooter": ("scooter", "motor scooter"), "cruiser": ("cruiser", "cruiser motorbike"),
-    "jet": ("jet", "jet plane"), "fighter": ("fighter", "fighter jet", "fighter plane"),
-    "biplane": ("biplane", "bi plane"), "airliner": ("airliner", "passenger plane"),
+    "jet": ("jet", "jet plane", "private jet", "business jet"), "fighter": ("fighter", "fighter jet", "fighter plane"),
+    "biplane": ("biplane", "bi plane"), "airliner": ("airliner", "passenger plane", "passenger jet", "jetliner"),
     "road": ("road bike", "roadbike", "road bicycle"), "utility": ("utility bike", "utility bicycle"),
     "mountain": ("mountain bike", "mountainbike", "mountain bicycle"), "tandem": ("tandem bike", "tandem",
                                                                                 "tandem bicycle"),
@@ -88,6 +90,19 @@ _JOINED = {"tail light": "taillight", "head light": "headlight", "side stand": "
 _PART_WORD_SYNONYMS = {"license": ("license", "licence"), "back": ("back", "rear"), "center": ("center", "centre",
                                                                                                "middle"),
                        "mid": ("mid", "middle"), "gas": ("gas", "fuel"), "windscreen": ("windscreen", "windshield")}
+#: Other names for whole part phrases (British/American, trade and everyday names), applied to every spelling.
+_PART_PHRASE_SYNONYMS = {"side stand": ("kickstand", "kick stand"), "sidestand": ("kickstand",),
+                         "tail light": ("tail lamp", "rear lamp"), "taillight": ("tail lamp", "rear lamp"),
+                         "head light": ("head lamp", "headlamp"), "headlight": ("headlamp", "head lamp"),
+                         "rear light": ("back light", "rear lamp"), "rearlight": ("back light",),
+                         "license plate": ("number plate", "registration plate"),
+                         "licence plate": ("number plate",), "trunk": ("boot",), "hood": ("bonnet",),
+                         "fender": ("mudguard", "mud guard"), "handle": ("handlebar", "handle bar"),
+                         "fin": ("tail fin", "vertical stabilizer", "vertical stabiliser"),
+                         "tailplane": ("horizontal stabilizer", "horizontal stabiliser", "tail plane"),
+                         "propeller": ("prop", "propellor"), "exhaust": ("exhaust pipe",),
+                         "gas tank": ("petrol tank", "tank"), "crank arm": ("crank",), "drive chain": ("chain",),
+                         "windscreen": ("windshield",), "mirror": ("side mirror",), "saddle": ("bike seat",)}
 
 
 def _join_forms(words: str) -> set[str]:
@@ -120,11 +135,23 @@ def _primary_part_forms(value: str) -> tuple[str, ...]:
     return tuple(dict.fromkeys(forms))
 
 
+def _phrase_synonyms(words: str) -> set[str]:
+    out = {words}
+    padded = f" {words} "
+    for phrase, others in _PART_PHRASE_SYNONYMS.items():
+        if f" {phrase} " in padded:
+            out.update(padded.replace(f" {phrase} ", f" {o} ").strip() for o in others)
+    return out
+
+
 @cache
 def _secondary_part_forms(value: str) -> tuple[str, ...]:
-    """Spaced / joined variants of the primary forms (``tail light`` <-> ``taillight``)."""
+    """Spaced / joined variants of the primary forms (``tail light`` <-> ``taillight``) and other names of the
+    part (``boot`` for ``trunk``, ``kickstand`` for ``side stand``)."""
     primary = _primary_part_forms(value)
-    return tuple(dict.fromkeys(f for p in primary for f in sorted(_join_forms(p)) if f not in primary))
+    joined = [f for p in primary for f in sorted(_join_forms(p))]
+    forms = joined + [o for f in joined for o in sorted(_phrase_synonyms(f))]
+    return tuple(dict.fromkeys(f for f in forms if f not in primary))
 
 
 @cache

@@ -125,6 +125,9 @@ def draw_assignment(template: Template, rng: np.random.Generator, redundant: boo
                 if shapes and float(rng.random()) < 0.85:
                     shape = shapes[0]
                     pool = _PARTS_OF_CATEGORY[shape if shape in ontology.CATEGORIES else ontology.CATEGORY_OF[shape]]
+                allowed = template.param_values[name]
+                if len(allowed) < len(ontology.CANONICAL_PARTNAME_VALUES):  # a family restricted to some names
+                    pool = tuple(v for v in pool if v in allowed) or allowed
                 assign[name] = pool[int(rng.integers(len(pool)))]
             else:
                 assign[name] = None
@@ -174,6 +177,43 @@ def expand(template: Template, assign: dict[str, str | None]) -> list[dict]:
     return out
 
 
+#: Probability that a shape query whose referent names no shape is given one (realised questions only).
+NAME_QUERIED_SHAPE = 0.4
+_OBJECT_FILTERS = ("filter_size", "filter_color", "filter_material", "filter_pose", "filter_occludee")
+
+
+def name_queried_shape(nodes: list[dict], rng: np.random.Generator, p: float = NAME_QUERIED_SHAPE) -> list[dict]:
+    """Shape queries whose referent is described without a shape, given one now and then.
+
+    CLEVR's shape templates leave the shape out of the description (the answer would be in the question), but
+    people ask "What kind of vehicle is the car?" about a category to get its subtype, and redundant descriptions
+    keep a subtype: ``... | filter_color[red] | unique | query_shape`` becomes ``... | filter_color[red] |
+    filter_shape[car] | unique | query_shape`` (the public filter order puts the shape last). Category in four of
+    five cases, else a subtype."""
+    out = [dict(n, inputs=list(n.get("inputs", []))) for n in nodes]
+    k = len(out) - 1
+    while k >= 0:
+        node = out[k]
+        if node["type"] == "query_shape" and out[node["inputs"][0]]["type"] == "unique" and float(rng.random()) < p:
+            u = node["inputs"][0]
+            chain, j = [], out[u]["inputs"][0]
+            while out[j]["type"] in (*_OBJECT_FILTERS, "filter_shape"):
+                chain.append(out[j]["type"])
+                j = out[j]["inputs"][0]
+            if "filter_shape" not in chain:
+                if float(rng.random()) < 0.8:
+                    value = ontology.CATEGORIES[int(rng.integers(len(ontology.CATEGORIES)))]
+                else:
+                    value = ontology.SUBTYPES[int(rng.integers(len(ontology.SUBTYPES)))]
+                new = {"type": "filter_shape", "inputs": [out[u]["inputs"][0]], "value_inputs": [value]}
+                for n in out:
+                    n["inputs"] = [i + 1 if i >= u else i for i in n["inputs"]]
+                out.insert(u, new)
+                out[u + 1]["inputs"] = [u]
+        k -= 1
+    return out
+
+
 def generate_corpus(count: int, config: CorpusConfig = CorpusConfig(),
                     families: list[Template] | None = None) -> list[Example]:
     """``count`` examples, families drawn uniformly (each family its share, whatever its file)."""
@@ -189,11 +229,14 @@ def iter_corpus(count: int, config: CorpusConfig = CorpusConfig(),
     while made < count:
         template = families[int(rng.integers(len(families)))]
         assign = draw_assignment(template, rng, float(rng.random()) < config.redundant)
-        program = canonical_targets(program_from_json(expand(template, assign)))
+        nodes = expand(template, assign)
+        program = canonical_targets(program_from_json(nodes))
         question = None
         if float(rng.random()) >= config.template_text:
             try:
-                question = realiser.question(program)
+                named = canonical_targets(program_from_json(name_queried_shape(nodes, rng)))
+                question = realiser.question(named)
+                program = named
             except Unrealisable:
                 question = None
         if question is None:

@@ -49,6 +49,9 @@ class _Obj:
     #: For the owner of a described part ("the thing that has a red wheel"): the part said alone ("the red
     #: wheel"), for "the door that belongs to the same object as the red wheel".
     owned_ref: str | None = None
+    #: For the owner of a part another object occludes: (part noun, the occluder's reference), for "The bus
+    #: occludes the front wheel of a thing; what colour is it?".
+    part_statement: tuple[str, str] | None = None
 
 
 @dataclass
@@ -59,6 +62,8 @@ class _Part:
     owner: _Obj | None = None
     owner_unique: bool = False
     posts: list[tuple[str, str]] = field(default_factory=list)
+    #: The occluder, for parts reached by relate_occluding_part ("How many parts does the bus occlude?").
+    anchor_ref: str | None = None
 
 
 _OBJECT_ATTR = {"filter_size": "size", "filter_color": "color", "filter_material": "material"}
@@ -137,7 +142,12 @@ class Realiser:
                                     (f"with the same {name} as {ref}",) * 2,
                                     (f"that is the same {name} as {ref}", f"that are the same {name} as {ref}"),
                                     (f"of the same {name} as {ref}",) * 2,
-                                    (f"sharing the {name} of {ref}",) * 2))
+                                    (f"sharing the {name} of {ref}",) * 2,
+                                    (f"that shares the {name} of {ref}", f"that share the {name} of {ref}"),
+                                    *(((f"that shares {ref}'s {name}", f"that share {ref}'s {name}"),
+                                       (f"sharing {ref}'s {name}",) * 2) if len(ref.split()) <= 4 and not _has_clause(ref) else ()),
+                                    (f"which has the same {name} as {ref}", f"which have the same {name} as {ref}"),
+                                    (f"that matches {ref} in {name}", f"that match {ref} in {name}")))
             return _Obj(posts=[(sing, plur)], other=self.chance(0.6), anchor=anchor, anchor_ref=ref)
         if f in ("same_pose", "opposite_pose", "vertical_pose"):
             anchor = self.obj(self._in(node))
@@ -191,7 +201,12 @@ class Realiser:
             (f"whose direction is {bare}",) * 2,
             (f"in the {bare} pose",) * 2,
             (f"that points {words}", f"that point {words}"),
-        ) if self.chance(0.3) else (
+            (f"that heads {words}", f"that head {words}"),
+            (f"which heads {words}", f"which head {words}"),
+            (f"that is heading {words}", f"that are heading {words}"),
+            (f"which is pointing {words}", f"which are pointing {words}"),
+            (f"looking {words}",) * 2,
+        ) if self.chance(0.35) else (
             (f"that faces {words}", f"that face {words}"),
             (f"facing {words}",) * 2,
             (f"which faces {words}", f"which face {words}"),
@@ -214,6 +229,8 @@ class Realiser:
         adjectives = self._part_adjectives(part)
         noun = self._part_noun(part, d.shape)
         if part.posts and not adjectives:  # "whose wheel is occluded by the bus"
+            if part.anchor_ref and part.name:
+                d.part_statement = (noun, part.anchor_ref)
             clause = part.posts[0][0].removeprefix("that ").removeprefix("which ")
             if clause.split()[0] in _PASSIVE_WORDS:
                 clause = "is " + clause
@@ -266,7 +283,7 @@ class Realiser:
         if f == "relate_occluding_part":
             anchor = self.obj(self._in(node))
             ref = self.np(anchor, "def")
-            return _Part(posts=[self.pick(_OCCLUDED_BY)(ref)])
+            return _Part(posts=[self.pick(_OCCLUDED_BY)(ref)], anchor_ref=ref)
         raise Unrealisable(f"no phrasing for {f} as a part set")
 
     # ----- noun phrases ----------------------------------------------------------------------------------------
@@ -292,6 +309,9 @@ class Realiser:
             return "part"
         category = _category(owner_shape)
         forms = lx.part_forms_for_category(part.name, category) if category else lx.part_forms(part.name)
+        shared = forms[len(lx.part_forms(part.name)):]  # spellings another category's value also has
+        if shared and self.chance(0.3):  # "the SUV's headlight" is the car's head_light: the owner decides
+            return self.pick(shared)
         return forms[0] if self.chance(0.5) else self.pick(forms)
 
     def _noun(self, d: _Obj, plural: bool) -> str:
@@ -307,8 +327,13 @@ class Realiser:
         if d.hoist:
             return "it" if kind != "plural" else "them"
         plural = kind == "plural"
-        adjectives = self._adjectives(d.attrs)
-        posts = [p[1] if plural else p[0] for p in d.posts]
+        attrs, said = dict(d.attrs), []
+        if attrs and self.chance(0.16):  # "the thing whose colour is red", "the car which is big and made of metal"
+            keys = [k for k in ("size", "color", "material") if k in attrs]
+            chosen = [k for k in keys if self.chance(0.6)] or [self.pick(keys)]
+            said = self._attribute_clauses({k: attrs.pop(k) for k in chosen}, plural)
+        adjectives = self._adjectives(attrs)
+        posts = said + [p[1] if plural else p[0] for p in d.posts]
         if d.occluded:
             if self.chance(0.5):
                 adjectives.insert(0, self.pick(("occluded", "partially occluded", "hidden")))
@@ -332,6 +357,35 @@ class Realiser:
         if kind == "indef":
             return "a " + head
         return head
+
+    def _attribute_clauses(self, attrs: dict[str, str], plural: bool) -> list[str]:
+        """Attributes said after the noun: "whose colour is red", "which is big and made of metal"."""
+        be, rel = ("are" if plural else "is"), self.pick(("that", "which", "that"))
+
+        def predicate(k: str, v: str) -> str:
+            if k == "material" and self.chance(0.5):
+                return f"made of {v}"
+            if k == "size" and self.chance(0.25):
+                return f"{self._attr_words((k, v))} in size"
+            if k == "color" and self.chance(0.2):
+                return f"{self.pick(('colored', 'coloured', 'painted'))} {self._attr_words((k, v))}"
+            return self._attr_words((k, v))
+
+        style = self.rng.random()
+        if style < 0.45:  # "whose colour is red", one clause per attribute
+            out = []
+            for k, v in attrs.items():
+                name = self.pick(_ATTR_NAME[k])
+                word = v if self.chance(0.6) else self._attr_words((k, v))
+                out.append(f"whose {name} is {word}")
+            return [", ".join(out) if len(out) > 1 and self.chance(0.5) else " and ".join(out)]
+        if style < 0.85:  # "which is red and made of metal"
+            return [f"{rel} {be} {_and([predicate(k, v) for k, v in attrs.items()])}"]
+        out = []  # "with a red colour", "of small size"
+        for k, v in attrs.items():
+            name = self.pick(_ATTR_NAME[k])
+            out.append(self.pick((f"with a {v} {name}", f"of {v} {name}")) if k != "material" else f"made of {v}")
+        return [" and ".join(out)]
 
     def part_np(self, p: _Part, kind: str) -> str:
         adjectives = self._part_adjectives(p)
@@ -360,7 +414,7 @@ class Realiser:
         style = self.rng.random()
         if style < 0.55:
             return f"{det}{head} of {owner}"
-        if style < 0.8 and owner.startswith("the ") and not p.owner.posts:
+        if style < 0.8 and owner.startswith("the ") and not p.owner.posts and not _has_clause(owner):
             return f"{owner}'s {head}"
         if style < 0.9:
             return f"{det}{head} on {owner}"
@@ -401,24 +455,106 @@ class Realiser:
                 word = self.pick(("occluded", "hidden", "partially occluded", "blocked", "covered",
                                   "occluded by something", "blocked from view"))
                 return f"Is {x} {word}?"
+            owner = part.owner
+            if (owner is not None and part.name and not part.posts and self.chance(0.2)
+                    and (owner.attrs or owner.shape or owner.posts or owner.occluded)):
+                # CLEVR's "There is a scooter; what colour is its panel?", "The red car has a trunk; what ..."
+                bare = " ".join([*self._part_adjectives(part), self._part_noun(part, owner.shape)])
+                if self.chance(0.3) and part.owner_unique:
+                    return (f"{self.np(owner, 'def')} {self.pick(('has', 'has got', 'comes with'))} a {bare}; "
+                            + self.pick(_IT_QUESTIONS[attr]))
+                intro = self.pick(_INTROS) + self.np(owner, "indef")
+                return intro + "; " + self._its_part_question(attr, bare)
+            if (owner is not None and owner.owned_ref and len(owner.posts) == 1 and part.name is not None
+                    and not (owner.attrs or owner.shape or owner.occluded) and self.chance(0.25)):
+                head = self.part_np(_Part(attrs=part.attrs, name=part.name, occluded=part.occluded), "def")
+                thing = self.pick(("object", "object", "vehicle", "thing"))
+                together = self.pick((f"are on the same {thing}", f"belong to the same {thing}",
+                                      f"are parts of the same {thing}", f"are on one {thing}"))
+                return f"{owner.owned_ref} and {head} {together}; " + self._attribute_question(attr, head)
             x = self.part_np(part, "def")
             return self._attribute_question(attr, x)
         d = self.obj(target)
         attr = f.removeprefix("query_")
         if attr == "shape" and d.via in ("occluding", "occluded_by", "occluding_part") and not d.narrowed \
-                and not d.other and self.chance(0.6):
+                and not d.other and self.chance(0.75):
             return self._what_occludes(d)
+        if attr == "shape" and d.via in ("pose", "relate") and not d.narrowed and not d.other and len(d.posts) == 1 \
+                and self.chance(0.4):
+            what = self._what_relation(d)
+            if what is not None:
+                return what
+        if attr == "shape" and d.posts and not d.other and self.chance(0.15):  # "Which bus has a red wheel?"
+            sing = d.posts[-1][0]
+            if sing.startswith(("that ", "which ")) and not sing.startswith(("that is ", "which is ")):
+                rest = self.np(_strip_posts(d), "def").removeprefix("the ")
+                return f"Which {rest} {sing.split(' ', 1)[1]}?"
+        statement = self._occlusion_statement(d)
+        if statement is not None:
+            return statement + self.pick(_IT_QUESTIONS[attr])
         if self.chance(0.14):  # CLEVR's "There is a small red car; what is its size?"
-            intro = self.pick(("There is ", "There is ", "Look at ", "Consider ")) + self.np(d, "indef") + "; "
+            intro = self.pick(_INTROS) + self.np(d, "indef") + "; "
             return intro + self.pick(_IT_QUESTIONS[attr])
         intro = self._maybe_hoist(d)
         x = self.np(d, "def")
         if attr == "pose":
             return intro + self.pick(_POSE_QUESTIONS)(x)
         question = self._attribute_question(attr, x)
-        if attr == "shape" and d.shape is None and not intro and self.chance(0.15):
-            question = self.pick((f"What is {x}?", f"What is {x}?", f"What vehicle is {x}?", f"What's {x}?"))
+        if attr == "shape" and not intro and self.chance(0.15):
+            question = self.pick((f"What is {x}?", f"What is {x}?", f"What vehicle is {x}?", f"What's {x}?",
+                                  f"What sort of thing is {x}?", f"Which kind of vehicle is {x}?",
+                                  f"What kind of thing is {x}?", f"Which type of object is {x}?"))
         return intro + question
+
+    def _its_part_question(self, attr: str, part: str) -> str:
+        name = self.pick(_ATTR_NAME[attr])
+        frames = [f"what {name} is its {part}?", f"what is the {name} of its {part}?", f"its {part} is what {name}?",
+                  f"what {name} does its {part} have?", f"what is its {part}'s {name}?"]
+        if attr == "material":
+            frames += [f"what is its {part} made of?", f"what material is its {part} made of?",
+                       f"is its {part} metal or rubber?"]
+        if attr == "size":
+            frames += [f"how big is its {part}?", f"is its {part} large or small?"]
+        return self.pick(frames)
+
+    def _occlusion_statement(self, d: _Obj) -> str | None:
+        """"The bus is occluded by a thing; what colour is it?", "The car occludes the wheel of a thing; ..."."""
+        if d.other or not self.chance(0.2):
+            return None
+        if d.part_statement is not None and not d.attrs and not d.shape and len(d.posts) == 1 and not d.occluded:
+            noun, ref = d.part_statement
+            thing = self.pick(("a thing", "an object", "a vehicle", "something", "an item"))
+            verb = self.pick(("occludes", "is occluding", "hides", "is hiding", "blocks", "covers", "is blocking"))
+            return f"{ref} {verb} the {noun} of {thing}; "
+        if d.via not in ("occluded_by", "occluding") or not d.anchor_ref or len(d.posts) != 1 or d.occluded:
+            return None
+        rest = self.np(_strip_posts(d), "indef")
+        if not (d.attrs or d.shape) and self.chance(0.25):
+            rest = "something"
+        ref = d.anchor_ref
+        if d.via == "occluded_by":  # the anchor occludes it
+            verb = self.pick(("occludes", "is occluding", "hides", "is hiding", "blocks", "is blocking",
+                              "partially hides", "covers"))
+            return f"{ref} {verb} {rest}; "
+        verb = self.pick(("is occluded by", "is hidden by", "is blocked by", "is partially hidden by",
+                          "is partly occluded by", "is covered by", "is obscured by"))
+        if self.chance(0.3):
+            return f"{rest} {self.pick(('occludes', 'hides', 'blocks', 'is occluding', 'is hiding'))} {ref}; "
+        return f"{ref} {verb} {rest}; "
+
+    def _what_relation(self, d: _Obj) -> str | None:
+        """Shape queries on an unnarrowed relation: "What faces the same direction as the bus?", "What is behind
+        the car?"."""
+        sing = d.posts[0][0]
+        words = sing.split()
+        if words[0] in ("that", "which") and len(words) > 1:
+            rest = " ".join(words[1:])
+            thing = self.pick(("thing", "object", "vehicle", "item"))
+            return self.pick((f"What {rest}?", f"Which {thing} {rest}?", f"What kind of {thing} {rest}?"))
+        if d.via == "relate" or words[0] in _BARE_STARTS:
+            thing = self.pick(("thing", "object", "vehicle"))
+            return self.pick((f"What is {sing}?", f"Which {thing} is {sing}?", f"What kind of {thing} is {sing}?"))
+        return None
 
     def _what_occludes(self, d: _Obj) -> str:
         """Shape queries on an occlusion relation: "What is occluding the bus?", "What does the car occlude?"."""
@@ -433,14 +569,15 @@ class Realiser:
         return self.pick((f"What is occluded by {ref}?", f"What does {ref} occlude?", f"What is {ref} occluding?",
                           f"Which {thing} is occluded by {ref}?", f"What is hidden by {ref}?",
                           f"What does {ref} block?", f"What kind of {thing} does {ref} occlude?",
-                          f"Which {thing} is blocked by {ref}?", f"What is {ref} hiding?"))
+                          f"Which {thing} is blocked by {ref}?", f"What is {ref} hiding?", f"What does {ref} hide?",
+                          f"What is {ref} blocking?", f"What does {ref} cover?", f"Which {thing} does {ref} hide?"))
 
     def _attribute_question(self, attr: str, x: str) -> str:
         name = self.pick(_ATTR_NAME[attr])
         common = [f"What is the {name} of {x}?", f"What {name} is {x}?", f"{x} is what {name}?",
                   f"{x} has what {name}?", f"What {name} does {x} have?", f"Tell me the {name} of {x}.",
                   f"What's the {name} of {x}?", f"Can you tell me the {name} of {x}?", f"Which {name} is {x}?",
-                  f"What is {x}'s {name}?" if len(x.split()) <= 4 else f"What is the {name} of {x}?",
+                  f"What is {x}'s {name}?" if len(x.split()) <= 4 and not _has_clause(x) else f"What is the {name} of {x}?",
                   f"Identify the {name} of {x}."]
         frames = {
             "color": [f"What color is {x} painted?" if len(x.split()) <= 4 else f"What color is {x}?", f"Of what {name} is {x}?", f"What is the {name} of {x}?",
@@ -448,13 +585,16 @@ class Realiser:
             "size": [f"What size is {x}?", f"How big is {x}?", f"What is the size of {x}?", f"{x} is what size?",
                      f"Is {x} large or small?", f"What size does {x} have?", f"Tell me the size of {x}.",
                      f"How large is {x}?", f"Is {x} big or small?", f"Is {x} small or large?",
-                     f"{x} is how big?", f"Is {x} little or big?"],
+                     f"{x} is how big?", f"Is {x} little or big?", f"Is {x} a large one or a small one?",
+                     f"Is {x} a small or a large one?", f"Is {x} a big thing or a small thing?",
+                     f"Is {x} a large or a small vehicle?"],
             "material": [f"What material is {x}?", f"What is {x} made of?", f"What is the material of {x}?",
                          f"{x} is made of what material?", f"Is {x} metal or rubber?", f"Is {x} rubber or metal?",
                          f"What is {x} made from?", f"Which material is {x}?", f"What material is {x} made of?",
                          f"What is {x} made out of?", f"{x} is made of what?", f"What material was used for {x}?",
                          f"Is {x} shiny or matte?", f"Is {x} made of metal or rubber?",
-                         f"What kind of material is {x}?", f"Of what material is {x}?"],
+                         f"What kind of material is {x}?", f"Of what material is {x}?",
+                         f"Is {x} a metal one or a rubber one?", f"Is {x} a rubber or a metal one?"],
             "shape": [f"What shape is {x}?", f"What type of vehicle is {x}?", f"What kind of object is {x}?",
                       f"What is the shape of {x}?", f"What sort of vehicle is {x}?", f"{x} is what type of vehicle?",
                       f"What kind of vehicle is {x}?", f"What type of object is {x}?", f"{x} is what shape?",
@@ -482,14 +622,35 @@ class Realiser:
                       f"What is the {adjs} part of {o}?", f"Which {adjs} part does {o} have?",
                       f"Which part on {o} is {state}?", f"What part of {o} is {state}?",
                       f"The {adjs} part of {o} is which part?", f"Which of {o}'s parts is {state}?"
-                      if len(o.split()) <= 4 else f"Which of the parts of {o} is {state}?",
+                      if len(o.split()) <= 4 and not _has_clause(o) else f"Which of the parts of {o} is {state}?",
                       f"What is the {adjs} part of {o} called?", f"Tell me which part of {o} is {state}.",
                       f"Which is the {adjs} part of {o}?"]
             if "material" in part.attrs and not part.occluded and len(part.attrs) == 1:
                 frames.append(f"Which part of {o} is made of {part.attrs['material']}?")
+            if self.chance(0.2):  # "There is a red car; which of its parts is occluded?"
+                intro = self.pick(_INTROS) + self.np(owner, "indef") + "; "
+                return intro + self.pick((f"which of its parts is {state}?", f"which part of it is {state}?",
+                                          f"what part of it is {state}?", f"which of its parts is {state}?",
+                                          f"what is its {adjs} part?", f"which is its {adjs} part?"))
             if "color" in part.attrs and not part.occluded and len(part.attrs) == 1:
                 frames.append(f"Which part of {o} is colored {self._attr_words(('color', part.attrs['color']))}?")
             return self.pick(frames)
+        if (owner is not None and part.name is not None and (part.attrs or part.occluded) and not part.posts
+                and (owner.attrs or owner.shape or owner.posts) and self.chance(0.6)):
+            o = self.np(owner, "def")
+            noun = self._part_noun(part, owner.shape)
+            names = _pluralise_part(noun)
+            state = self._part_state(part)
+            short = len(o.split()) <= 4 and not _has_clause(o)
+            if self.chance(0.2):
+                intro = self.pick(_INTROS) + self.np(owner, "indef") + "; "
+                return intro + self.pick((f"which of its {names} is {state}?", f"which {noun} of it is {state}?",
+                                          f"which one of its {names} is {state}?"))
+            return self.pick((f"Which {noun} of {o} is {state}?", f"Which {noun} of {o} is {state}?",
+                              f"Which of the {names} of {o} is {state}?", f"Which {noun} on {o} is {state}?",
+                              f"Which of {o}'s {names} is {state}?" if short else f"Which {noun} of {o} is {state}?",
+                              f"What is the name of the {' '.join(self._part_adjectives(part))} {noun} of {o}?",
+                              f"Which one of the {names} of {o} is {state}?", f"Tell me which {noun} of {o} is {state}."))
         x = self.part_np(part, "def")
         return self.pick((f"What is the name of {x}?", f"What is {x} called?", f"What do you call {x}?",
                           f"What is the name of {x}?", f"Name {x}.", f"Which part is {x}?",
@@ -532,16 +693,40 @@ class Realiser:
             word = self.pick(("occluded", "hidden", "partially hidden", "partly occluded", "blocked from view",
                               "occluded by another object", "covered by something"))
             return self.pick((f"Is {x} {word}?", f"Is {x} {word}?", f"Is {x} {word} in the picture?"))
-        if d.via is not None and d.posts and d.union is None and self.chance(0.35):
+        if d.via is not None and d.posts and d.union is None and self.chance(0.7 if d.via == "occluding_part" else 0.35):
             direct = self._relation_yes_no(d) if not count else self._relation_count(d)
             if direct is not None:
                 return direct
+        if d.attrs and not d.posts and not d.occluded and not d.other and self.chance(0.2):
+            # attributes said as the predicate: "Are any of the buses small and red?", "How many cars are metal?"
+            keys = [k for k in ("size", "color", "material") if k in d.attrs]
+            chosen = [k for k in keys if self.chance(0.5)] or [self.pick(keys)]
+            subject_attrs = {k: v for k, v in d.attrs.items() if k not in chosen}
+            subject = self.np(_Obj(attrs=subject_attrs, shape=d.shape), "plural")
+            pred = _and([f"made of {d.attrs[k]}" if k == "material" and self.chance(0.3)
+                         else self._attr_words((k, d.attrs[k])) for k in chosen])
+            if count:
+                return self.pick((f"How many {subject} are {pred}?", f"How many of the {subject} are {pred}?",
+                                  f"What number of {subject} are {pred}?", f"How many of the {subject} are {pred}?"))
+            return self.pick((f"Are any of the {subject} {pred}?", f"Are any {subject} {pred}?",
+                              f"Is any of the {subject} {pred}?", f"Are there {subject} that are {pred}?",
+                              f"Are any of the {subject} in the scene {pred}?"))
+        if d.occluded and not d.posts and not d.other and self.chance(0.3):  # "How many of the red cars are hidden?"
+            plain = self.np(_Obj(attrs=d.attrs, shape=d.shape), "plural")
+            occ = self.pick(("occluded", "hidden", "partially hidden", "partly occluded", "blocked from view",
+                             "obscured", "not fully visible", "covered"))
+            if count:
+                return self.pick((f"How many {plain} are {occ}?", f"How many of the {plain} are {occ}?",
+                                  f"What number of {plain} are {occ}?", f"How many {plain} are {occ} in the image?"))
+            return self.pick((f"Are any {plain} {occ}?", f"Are any of the {plain} {occ}?",
+                              f"Is any of the {plain} {occ}?", f"Are there {plain} that are {occ}?"))
         intro = self._maybe_hoist(d)
         predicative = self._predicative(d)
         if count:
             if predicative is not None and self.chance(0.6):
                 subject, pred = predicative
-                return intro + self.pick((f"How many {subject} {pred}?", f"What number of {subject} {pred}?"))
+                return intro + self.pick((f"How many {subject} {pred}?", f"What number of {subject} {pred}?",
+                                          f"How many of the {subject} {pred}?"))
             x = self.np(d, "plural")
             return intro + self.pick((f"How many {x} are there?", f"What number of {x} are there?",
                                       f"How many {x} are in the scene?", f"Count the {x}.",
@@ -574,7 +759,11 @@ class Realiser:
                                   f"Is there at least one {self.np(d, 'indef').removeprefix('a ')}?",
                                   f"Are there any {x} in the image?", f"Do any {x} exist?",
                                   f"Is there {single} in the image?", f"Are there any {x} in the picture?",
-                                  f"Is {single} visible?", f"Is there {single} anywhere?"))
+                                  f"Is {single} visible?", f"Is there {single} anywhere?",
+                                  f"Does the {self.pick(('image', 'picture', 'scene', 'photo'))} "
+                                  f"{self.pick(('show', 'contain', 'have', 'include'))} any {x}?",
+                                  f"Does the {self.pick(('image', 'picture', 'scene'))} show {single}?",
+                                  f"Are any {x} present?", f"Can you see any {x}?", f"Are there any {x} present?"))
 
     def _relation_yes_no(self, d: _Obj) -> str | None:
         """Exist over a relation, said of one object: "Is the car behind the bus?", "Does the truck occlude the
@@ -584,7 +773,7 @@ class Realiser:
         ref = d.anchor_ref
         # Only for parts: "Is the bus occluded by the car?" is said of relate_occluding (the generic clause
         # below), "Does the car occlude the bus?" of relate_occluded; one wording, one program.
-        if d.via == "occluding_part" and ref and self.chance(0.6):
+        if d.via == "occluding_part" and ref and self.chance(0.8):
             style = self.rng.random()
             some = (self.np(rest, "def") if style < 0.4 else self.np(rest, "indef") if style < 0.8
                     else "any " + self.np(rest, "plural"))
@@ -617,9 +806,72 @@ class Realiser:
                               f"What number of {rest} does {ref} occlude?"))
         return None
 
+    def _part_state(self, part: _Part) -> str | None:
+        """The part's attributes said as a predicate ("red", "made of metal", "occluded"), or None."""
+        if not (part.attrs or part.occluded):
+            return None
+        words = []
+        for k in ("size", "color", "material"):
+            if k in part.attrs:
+                v = part.attrs[k]
+                words.append(f"made of {v}" if k == "material" and self.chance(0.4) else self._attr_words((k, v)))
+        if part.occluded:
+            words.append(self.pick(("occluded", "occluded", "hidden", "partially occluded", "blocked from view",
+                                    "obscured", "partly hidden", "not fully visible", "covered")))
+        return _and(words)
+
     def _count_exist_parts(self, part: _Part, count: bool) -> str:
         owner = part.owner
         described = owner is not None and (owner.attrs or owner.shape or owner.posts or owner.occluded)
+        state = self._part_state(part)
+        if part.anchor_ref and not part.attrs and not part.occluded:  # relate_occluding_part
+            ref = part.anchor_ref
+            names = lx.plural(self._part_noun(part, None)) if part.name else "parts"
+            verb = self.pick(("occlude", "hide", "block", "cover", "obscure"))
+            done = {"occlude": "occluded", "hide": "hidden", "block": "blocked", "cover": "covered",
+                    "obscure": "obscured"}[verb]
+            if count:
+                return self.pick((f"How many {names} does {ref} {verb}?", f"How many {names} are {done} by {ref}?",
+                                  f"What number of {names} does {ref} {verb}?", f"How many {names} is {ref} {verb}ing?"
+                                  if verb != "hide" else f"How many {names} is {ref} hiding?"))
+            one = self._part_noun(part, None) if part.name else "part"
+            return self.pick((f"Does {ref} {verb} any {names}?", f"Is any {one} {done} by {ref}?",
+                              f"Does {ref} {verb} a {one}?"))
+        if described and state is not None and not part.posts and self.chance(0.6):
+            o = self.np(owner, "def" if part.owner_unique or self.chance(0.7) else "indef")
+            short = len(o.split()) <= 4 and o.startswith("the ") and not _has_clause(o)
+            if part.name is not None:
+                noun = self._part_noun(part, owner.shape)
+                names = _pluralise_part(noun)
+                if count:
+                    return self.pick((f"How many {names} of {o} are {state}?", f"How many of {o}'s {names} are {state}?"
+                                      if short else f"How many of the {names} of {o} are {state}?",
+                                      f"What number of {names} of {o} are {state}?"))
+                frames = [f"Is any {noun} of {o} {state}?", f"Are any of the {names} of {o} {state}?"]
+                if part.occluded:  # "Is the wheel of the car occluded?" asks partquery_occlusion
+                    frames += [f"Does {o} have a {state} {noun}?" if " " not in state else
+                               f"Does {o} have a {noun} that is {state}?", f"Is one of the {names} of {o} {state}?"]
+                else:
+                    frames += [f"Is the {noun} of {o} {state}?", f"Is the {noun} on {o} {state}?",
+                               f"Is the {noun} of {o} {state}?"]
+                if short:
+                    frames += [f"Are any of {o}'s {names} {state}?"] + ([] if part.occluded else [f"Is {o}'s {noun} {state}?"])
+                if "color" in part.attrs and not part.occluded and len(part.attrs) == 1:
+                    frames += [f"Is the {noun} of {o} colored {part.attrs['color']}?",
+                               f"Is the {noun} of {o} painted {part.attrs['color']}?"]
+                return self.pick(frames)
+            if count:
+                return self.pick((f"How many parts of {o} are {state}?", f"How many of the parts of {o} are {state}?",
+                                  f"How many of {o}'s parts are {state}?" if short else
+                                  f"How many parts of {o} are {state}?", f"What number of parts of {o} are {state}?",
+                                  f"How many parts are {state} on {o}?"))
+            frames = [f"Is any part of {o} {state}?", f"Are any parts of {o} {state}?",
+                      f"Are any of the parts of {o} {state}?", f"Does {o} have a part that is {state}?",
+                      f"Does {o} have any parts that are {state}?", f"Is there a part of {o} that is {state}?",
+                      f"Is some part of {o} {state}?"]
+            if short:
+                frames += [f"Are any of {o}'s parts {state}?", f"Is any of {o}'s parts {state}?"]
+            return self.pick(frames)
         if described:
             o = self.np(owner, "def" if part.owner_unique or self.chance(0.7) else "indef")
             bare = _Part(attrs=part.attrs, name=part.name, occluded=part.occluded, posts=part.posts)
@@ -645,7 +897,8 @@ class Realiser:
         sing, plur = d.posts[-1]
         rest = _Obj(attrs=d.attrs, shape=d.shape, posts=d.posts[:-1], occluded=d.occluded, other=d.other)
         if plur.startswith("that ") and not plur.startswith("that is "):
-            if len(plur.split()) > 1 and plur.split()[1] in ("are", "face", "have", "occlude", "block", "hide"):
+            if len(plur.split()) > 1 and plur.split()[1] in ("are", "face", "have", "occlude", "block", "hide", "share",
+                                                             "head", "point", "match", "cover", "obscure"):
                 return self.np(rest, "plural"), plur.removeprefix("that ")
             return None
         if plur.startswith(("occluded by", "facing", "pointing")):
@@ -657,10 +910,26 @@ class Realiser:
     def _compare_attribute(self, node: Node) -> str:
         attr = node.function.removeprefix("equal_")
         a, b = self._in(node, 0), self._in(node, 1)
-        if not (a.function.startswith("query_") and b.function.startswith("query_")):
+        if not (a.function.startswith(("query_", "partquery_")) and b.function.startswith(("query_", "partquery_"))):
             raise Unrealisable("attribute comparison of non-queries")
-        x, y = self.np(self.obj(self._in(a)), "def"), self.np(self.obj(self._in(b)), "def")
+
+        def said(q: Node) -> str:
+            if q.function.startswith("partquery_"):
+                return self.part_np(self.part(self._in(q)), "def")
+            return self.np(self.obj(self._in(q)), "def")
+
+        x, y = said(a), said(b)
         name = self.pick(_ATTR_NAME[attr])
+        if a.function.startswith("query_") and self.chance(0.12):  # "There is a blue car; is it the same size as ...?"
+            intro = self.pick(("There is ", "There is ", "Look at ")) + "a " + x.removeprefix("the ") + "; "
+            frames = [f"is it the same {name} as {y}?", f"does it have the same {name} as {y}?",
+                      f"is it of the same {name} as {y}?", f"does it share its {name} with {y}?",
+                      f"is its {name} the same as {y}'s?" if len(y.split()) <= 4 and not _has_clause(y) else f"is it the same {name} as {y}?"]
+            if attr == "material":
+                frames += [f"is it made of the same material as {y}?"]
+            if attr == "size":
+                frames += [f"is it as big as {y}?"]
+            return intro + self.pick(frames)
         frames = [f"Do {x} and {y} have the same {name}?", f"Is {x} the same {name} as {y}?",
                   f"Does {x} have the same {name} as {y}?", f"Are {x} and {y} the same {name}?",
                   f"Is the {name} of {x} the same as {y}?", f"Is the {name} of {x} the same as that of {y}?",
@@ -670,7 +939,7 @@ class Realiser:
                   f"Does {x} match {y} in {name}?", f"Is the {name} of {x} and {y} the same?",
                   f"Are {x} and {y} the same in {name}?",
                   f"Does {x} share its {name} with {y}?", f"Is {x}'s {name} the same as {y}'s?"
-                  if len(x.split()) <= 4 and len(y.split()) <= 4 else f"Is {x} the same {name} as {y}?"]
+                  if len(x.split()) <= 4 and len(y.split()) <= 4 and not _has_clause(x + " " + y) else f"Is {x} the same {name} as {y}?"]
         if attr == "size":
             frames += [f"Is {x} as big as {y}?", f"Is {x} as large as {y}?", f"Are {x} and {y} equally big?"]
         if attr == "color":
@@ -732,13 +1001,13 @@ class Realiser:
         if self.chance(0.45):
             return self.pick(self._more_count_frames(f, x, y, n, m))
         if f == "greater_than":
-            more = self.pick(("more", "greater", "bigger", "larger", "higher"))
+            more = self.pick(("more", "greater", "bigger", "larger", "higher", "higher"))
             frames = [f"Are there more {x} than {y}?", (f"Is the number of {x} {more if more != 'more' else 'greater'}"
                       f" than the number of {y}?"), f"Do {x} outnumber {y}?", f"Are there more {x} than {y}?",
                       f"Is the number of {x} larger than that of {y}?", f"Are {x} more numerous than {y}?",
                       f"Is the count of {x} greater than the count of {y}?"]
         elif f == "less_than":
-            less = self.pick(("less", "smaller", "fewer", "lower"))
+            less = self.pick(("less", "smaller", "fewer", "lower", "lower"))
             frames = [f"Are there fewer {x} than {y}?", f"Are there less {x} than {y}?",
                       f"Is the number of {x} {less} than the number of {y}?",
                       f"Is the number of {x} smaller than that of {y}?", f"Are {x} fewer than {y}?",
@@ -750,6 +1019,11 @@ class Realiser:
                       f"Is the number of {x} equal to the number of {y}?", f"Are there an equal number of {x} and {y}?",
                       f"Is the number of {x} equal to that of {y}?", f"Do {x} and {y} have the same count?"]
         return self.pick(frames)
+
+
+def _has_clause(phrase: str) -> bool:
+    """Whether a noun phrase has a post-modifier (no possessive "'s" after it)."""
+    return any(w in phrase.split() for w in ("that", "which", "whose", "made", "with", "of", "in"))
 
 
 def _and(words: list[str]) -> str:
@@ -863,17 +1137,23 @@ _POSE_RELATIONS = {
                       lambda r: (f"that is facing perpendicular to {r}", f"that are facing perpendicular to {r}"),
                       lambda r: (f"facing a direction perpendicular to {r}",) * 2,
                       lambda r: (f"that faces a perpendicular direction to {r}", f"that face a perpendicular direction to {r}"),
-                      lambda r: (f"that faces the vertical direction of {r}", f"that face the vertical direction of {r}")),
+                      lambda r: (f"that faces the vertical direction of {r}", f"that face the vertical direction of {r}"),
+                      lambda r: (f"that is at a right angle to {r}", f"that are at a right angle to {r}"),
+                      lambda r: (f"at right angles to {r}",) * 2),
 }
 _VERBS = ("face", "occlude", "block", "hide", "point", "obscure", "cover", "partially", "have")
 _BARE_STARTS = ("occluded", "hidden", "blocked", "facing", "pointing", "oriented", "heading", "partially", "parallel",
                 "perpendicular")
 #: Rarer words for attribute values and shapes (the realiser's own; the lexicon keeps the public ones).
-_ATTRIBUTE_EXTRA = {"large": ("giant", "enormous"), "small": ("miniature", "small-sized"),
-                    "metal": ("metallic", "glossy", "shiny metal"), "rubber": ("matt", "rubbery", "matte rubber")}
-_SHAPE_EXTRA = {"truck": ("pickup",), "minivan": ("van",), "airliner": ("passenger jet", "jetliner", "airliner plane"),
-                "scooter": ("moped",), "fighter": ("fighter aircraft", "warplane"), "car": ("auto",),
-                "aeroplane": ("airplane",), "motorbike": ("motorcycle",), "bicycle": ("bike",)}
+_ATTRIBUTE_EXTRA = {"large": ("giant", "enormous", "large-sized", "big-sized", "massive"),
+                    "small": ("miniature", "small-sized", "mini", "little-sized"),
+                    "metal": ("metallic", "glossy", "shiny metal", "chrome", "reflective", "metal-made"),
+                    "rubber": ("matt", "rubbery", "matte rubber", "dull", "non-metallic", "non-metal", "non-shiny"),
+                    "gray": ("grey", "silver"), "purple": ("violet",), "cyan": ("turquoise",)}
+_SHAPE_EXTRA = {"truck": ("pickup",), "minivan": ("van",), "airliner": ("passenger airliner", "airliner plane"),
+                "scooter": ("moped",), "fighter": ("fighter aircraft", "warplane", "military jet"),
+                "car": ("auto", "motorcar"), "aeroplane": ("airplane", "aircraft"), "motorbike": ("motorcycle",),
+                "bicycle": ("bike", "pushbike"), "bus": ("coach", "omnibus"), "wagon": ("estate",)}
 _PASSIVE_WORDS = ("occluded", "hidden", "blocked", "partially", "partly", "obscured", "covered")
 _POSE_EXTRA = {"front_pose": ("the camera", "towards us", "toward the viewer", "frontward", "forwards"),
                "back_pose": ("away", "away from us", "away from the viewer", "backwards", "rearward"),
@@ -907,6 +1187,8 @@ _POSE_QUESTIONS = (lambda x: f"Which direction is {x} facing?", lambda x: f"What
                    lambda x: f"Which direction is {x} heading?", lambda x: f"In what direction is {x} facing?",
                    lambda x: f"Which direction does {x} point to?", lambda x: f"{x} is pointing in which direction?")
 
+_INTROS = ("There is ", "There is ", "There is ", "Look at ", "Consider ", "There's ", "I can see ", "You can see ",
+           "The picture shows ")
 _ARTICLE = re.compile(r"\b([Aa]) (?=(\w+))")
 _SAYS_CONSONANT = ("uti", "uni", "use", "one")
 _SAYS_VOWEL = ("suv",)
