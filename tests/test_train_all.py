@@ -26,6 +26,7 @@ MODELS = {
     "viewpoint": ("viewpoint.safetensors",),
     "projection_calibration": ("projection_calibration.safetensors",),
     "priors": ("priors.json",),
+    "answer_calibration": ("answer_calibration.json",),
 }
 
 

@@ -44,8 +44,8 @@ def _progress(console, label: str):
                     TimeElapsedColumn(), TimeRemainingColumn(), console=console)
 
 
-def resolve_priors(priors: str):
-    """``--priors``: shipped, hand-set or a model directory."""
+def resolve_priors(priors: str, model_dir: Path | None = None):
+    """``--priors``: shipped (those of ``model_dir`` when given), hand-set or a model directory."""
     from po3d_ppl.errors import InputError
     from po3d_ppl.evidence import ScenePriors
     from po3d_ppl.perception.priors import load_priors
@@ -53,7 +53,7 @@ def resolve_priors(priors: str):
     if priors == "hand-set":
         return ScenePriors()
     if priors == "shipped":
-        return load_priors()
+        return load_priors(model_dir)
     if not Path(priors).is_dir():
         raise InputError("--priors", f"{priors!r} is neither shipped, hand-set nor a model directory")
     return load_priors(Path(priors))
@@ -61,7 +61,7 @@ def resolve_priors(priors: str):
 
 def _run(data: Path, split: str, methods: str, noise: float, seed: int, limit, cache: Path | None, parse: bool,
          device: str, threads: int, console, label: str, perception: str = "simulated", semantics: str = "intended",
-         priors: str = "shipped"):
+         priors: str = "shipped", model_dir: Path | None = None, recalibrate: bool = True):
     """(dataset, run, cache) of one evaluation; with image evidence, ``ours`` is also reported recalibrated by the
     shipped answer calibration (``ours_calibrated``), when one is shipped."""
     import torch
@@ -79,13 +79,15 @@ def _run(data: Path, split: str, methods: str, noise: float, seed: int, limit, c
         raise InputError("--perception", f"{perception!r} is not a back-end; use simulated or image")
     from po3d_ppl.reasoning.answer_calibration import load_answer_calibration
 
-    backend = SimulatedBackend(noise, seed) if perception == "simulated" else ImageBackend()
-    recalibrate = load_answer_calibration() if perception == "image" and "ours" in chosen else None
+    backend = SimulatedBackend(noise, seed) if perception == "simulated" else ImageBackend(models_dir=model_dir)
+    calibration = None
+    if recalibrate and perception == "image" and "ours" in chosen:
+        calibration = load_answer_calibration(model_dir)
     store = EvidenceCache(cache if cache is not None else Path(data) / "eval_cache")
     with _progress(console, label) as bar:
         task = bar.add_task(label, total=None)
         run = evaluate(dataset, split, backend, chosen, cache=store, limit=limit, parse=parse, device=device,
-                       priors=resolve_priors(priors), answer_calibration=recalibrate,
+                       priors=resolve_priors(priors, model_dir), answer_calibration=calibration,
                        progress=lambda done, total: bar.update(task, completed=done, total=total),
                        semantics=semantics)
     return dataset, run, store
@@ -199,6 +201,8 @@ def train_answer_calibration_command(
     noise: float = _NOISE, seed: int = _SEED, priors: str = _PRIORS,
     out: Path = typer.Option(None, "--out", help="Model directory to write answer_calibration.json and its manifest "
                                                  "entry into (default: the shipped models/)."),
+    model_dir: Path = typer.Option(None, "--model-dir", help="The perception models and priors whose answers to "
+                                                             "calibrate (default: the shipped models/)."),
 ) -> None:
     """Fit the answer calibration (a temperature and a smoothing per answer type) on a VALIDATION dataset's
     questions answered by ours from the image, and ship it: the pipeline applies it to every answer from an image.
@@ -215,7 +219,7 @@ def train_answer_calibration_command(
 
     console = Console()
     dataset, run, _ = _run(data, split, "ours", noise, seed, limit, cache, False, device, threads, console,
-                           "answer calibration", perception, priors=priors)
+                           "answer calibration", perception, priors=priors, model_dir=model_dir, recalibrate=False)
     calibration, per_type = fit(run.records)
     for record in run.records:
         record.predictions[CALIBRATED] = _recalibrated(record, calibration)
@@ -227,6 +231,7 @@ def train_answer_calibration_command(
     words += ["--limit", str(limit)] if limit else []
     words += ["--noise", str(noise), "--seed", str(seed)] if perception == "simulated" else []
     words += ["--out", str(out)] if out is not None else []
+    words += ["--model-dir", str(model_dir)] if model_dir is not None else []
     metrics = {"questions": len(run.records), "images": run.images, "types": per_type,
                "fit_split": {"before": {k: before.row()[k] for k in ("accuracy", "mean_confidence", "ece", "nll")},
                              "after": {k: after.row()[k] for k in ("accuracy", "mean_confidence", "ece", "nll")}}}

@@ -177,6 +177,26 @@ _CACHE = typer.Option(None, "--cache", help="Evidence cache directory (shared wi
                                             "image`; default: DATA/eval_cache).")
 
 
+def evidence_figures(data: Path, split: str, limit: int | None, store, console) -> dict:
+    """Perception's figures on ``split`` from the evidence cache ``store`` (each image parsed once): attributes,
+    parts and occlusion, the objects under the scene parser's camera, and the projected tables' calibration (each
+    read as its posterior under the priors the image pipeline uses)."""
+    from po3d_ppl.evaluation.backends import ImageBackend
+    from po3d_ppl.evaluation.evidence_scores import EvidenceCounts
+    from po3d_ppl.evaluation.objects import EvidenceAsProposals, score_image, summarise
+    from po3d_ppl.evaluation.projection import as_tensors, measure
+    from po3d_ppl.perception.priors import load_priors
+
+    backend = ImageBackend()
+    counts, outcomes = EvidenceCounts(priors=backend.scene_priors(load_priors())), []
+    for evidence, scene in _cached_evidence(data, split, limit, store, backend, console, "evidence"):
+        counts.add(evidence, scene)
+        outcomes.append(score_image(EvidenceAsProposals.of(evidence), scene, scene.image_filename, 0.0))
+    return {"evidence": counts.figures(), "objects": summarise(outcomes),
+            "projected_tables": measure(None, as_tensors(counts.entries)),
+            "cache": {"hits": store.hits, "misses": store.misses}}
+
+
 def eval_evidence_command(
     data: Path = _DATA, split: str = typer.Option("all", "--split", help="Split of --data (all: every image)."),
     limit: int = _LIMIT, threads: int = _THREADS, cache: Path = _CACHE,
@@ -188,23 +208,9 @@ def eval_evidence_command(
     import torch
     from rich.console import Console
 
-    from po3d_ppl.evaluation.backends import ImageBackend
-    from po3d_ppl.evaluation.evidence_scores import EvidenceCounts
-    from po3d_ppl.evaluation.objects import EvidenceAsProposals, score_image, summarise
-    from po3d_ppl.evaluation.projection import as_tensors, measure
-    from po3d_ppl.perception.priors import load_priors
-
     torch.set_num_threads(threads)
     console = Console()
-    backend = ImageBackend()
-    counts, outcomes = EvidenceCounts(priors=backend.scene_priors(load_priors())), []
-    store = _evidence_cache(data, cache)
-    for evidence, scene in _cached_evidence(data, split, limit, store, backend, console, "evidence"):
-        counts.add(evidence, scene)
-        outcomes.append(score_image(EvidenceAsProposals.of(evidence), scene, scene.image_filename, 0.0))
-    figures = {"evidence": counts.figures(), "objects": summarise(outcomes),
-               "projected_tables": measure(None, as_tensors(counts.entries)),
-               "cache": {"hits": store.hits, "misses": store.misses}}
+    figures = evidence_figures(data, split, limit, _evidence_cache(data, cache), console)
     if json_out is not None:
         Path(json_out).write_text(json.dumps(figures, indent=1) + "\n")
     console.print_json(json.dumps(figures))

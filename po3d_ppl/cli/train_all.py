@@ -30,7 +30,7 @@ import typer
 
 #: Every stage, in the order they run (each reads only what the ones before it wrote).
 STAGES = ("datasets", "parser", "perception", "background", "calibration", "attributes", "viewpoint", "projection",
-          "priors")
+          "priors", "answer_calibration")
 #: The held-out test seed: never built or read by ``po3d train all``.
 TEST_SEED = 713
 #: The report written next to the weights.
@@ -46,6 +46,7 @@ _DESCRIPTIONS = {
     "viewpoint": "po3d train viewpoint: azimuth network and its temperature",
     "projection": "po3d train projection: Platt scaling of the projected tables (parses val with --out's models)",
     "priors": "po3d train priors: the world's rates, written to priors.json",
+    "answer_calibration": "po3d train answer-calibration: answers from val's images recalibrated per answer type",
 }
 #: model name in the manifest -> (stage that writes it, what it is)
 _MODELS = {
@@ -57,10 +58,13 @@ _MODELS = {
     "viewpoint": ("viewpoint", "viewpoint network"),
     "projection_calibration": ("projection", "projection calibration"),
     "priors": ("priors", "fitted scene priors"),
+    "answer_calibration": ("answer_calibration", "answer calibration"),
 }
 #: models each stage reads from --out (written by an earlier stage)
 _NEEDS_MODELS = {"calibration": ("perception_features", "background"),
-                 "projection": ("perception_features", "background", "object_calibration", "attributes", "viewpoint")}
+                 "projection": ("perception_features", "background", "object_calibration", "attributes", "viewpoint"),
+                 "answer_calibration": ("perception_features", "background", "object_calibration", "attributes",
+                                        "viewpoint", "projection_calibration", "priors")}
 
 
 @dataclass(frozen=True)
@@ -86,6 +90,7 @@ class Scale:
     attributes: dict[str, Any]
     viewpoint: dict[str, Any]
     projection: dict[str, Any]
+    answer_calibration: dict[str, Any] = field(default_factory=dict)
     #: which datasets (by name) each stage trains on; ``val`` is the validation / calibration dataset
     train_sets: dict[str, tuple[str, ...]] = field(default_factory=dict)
     val: str = "val_s712"
@@ -110,6 +115,7 @@ FULL = Scale(
                 "val_split": "val"},
     viewpoint={"epochs": 30, "batch_size": 32, "lr": 0.003, "splits": "train,test", "val_split": "val"},
     projection={"split": "all"},
+    answer_calibration={"split": "all"},
     train_sets={"perception": ("train_s711",), "background": ("train_s711",), "priors": ("train_s711",),
                 "attributes": ("train_s711", "train_s714", "train_s715"), "viewpoint": ("train_s711", "train_s714")},
 )
@@ -130,6 +136,7 @@ TINY = Scale(
                 "val_split": "val", "max_steps": 2},
     viewpoint={"epochs": 1, "batch_size": 4, "lr": 0.003, "splits": "train", "val_split": "val", "max_steps": 2},
     projection={"split": "all", "limit": 2},
+    answer_calibration={"split": "all", "limit": 1},
     train_sets={"perception": ("train_s711",), "background": ("train_s711",), "priors": ("train_s711",),
                 "attributes": ("train_s711",), "viewpoint": ("train_s711",)},
     evaluate=False,
@@ -192,6 +199,7 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
     """Every stage's steps for ``scale``, datasets under ``data``, models into ``out``."""
     from po3d_ppl.cli.attributes import train_attributes_command
     from po3d_ppl.cli.dataset import build
+    from po3d_ppl.cli.evaluate import train_answer_calibration_command
     from po3d_ppl.cli.language import calibrate_parser_command, train_parser_command
     from po3d_ppl.cli.objects import train_background_command, train_calibration_command, train_projection_command
     from po3d_ppl.cli.perception import train_perception_command
@@ -234,6 +242,9 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
                             **scale.projection, threads=threads, out=out, model_dir=out)],
         "priors": [step("priors", train_priors, ["po3d", "train", "priors"], data=sets("priors")[0], split="train",
                         out=out)],
+        "answer_calibration": [step("answer calibration", train_answer_calibration_command,
+                                    ["po3d", "train", "answer-calibration"], data=val, **scale.answer_calibration,
+                                    threads=threads, out=out, model_dir=out)],
     }
     return steps
 
@@ -245,7 +256,7 @@ def datasets_needed(scale: Scale, stages: list[str]) -> list[DatasetSpec]:
     names = set()
     for stage in stages:
         names |= set(scale.train_sets.get(stage, ()))
-        if stage in ("calibration", "projection") or (scale.evaluate and stage in ("perception", "attributes", "viewpoint")):
+        if stage in ("calibration", "projection", "answer_calibration") or (scale.evaluate and stage in ("perception", "attributes", "viewpoint")):
             names.add(scale.val)
     return [d for d in scale.datasets if d.name in names]
 

@@ -177,18 +177,20 @@ def evaluate(dataset, split: str, backend: EvidenceBackend, methods: Sequence[st
              cache: EvidenceCache | None = None, limit: int | None = None, parse: bool = False, parser=None,
              priors=None, budget=None, device: str = "cpu",
              progress: Callable[[int, int], None] | None = None, semantics: str = "intended",
-             answer_calibration=None) -> EvalRun:
+             answer_calibration=None, proposal_priors: bool = True) -> EvalRun:
     """Answer the split's questions (the first ``limit`` images) by every method on one evidence per image, under
     ``semantics`` (``public``: the dataset must be built with it; the evidence reads the public annotation).
     With an ``answer_calibration`` (:class:`~po3d_ppl.reasoning.answer_calibration.AnswerCalibration`), ``ours``
-    is also reported recalibrated, as ``ours_calibrated``."""
+    is also reported recalibrated, as ``ours_calibrated``. ``proposal_priors`` lets the back-end set the priors
+    its calibration knows for its proposals (``EvidenceBackend.scene_priors``); False uses ``priors`` as given."""
     from dataclasses import asdict
 
     from po3d_ppl.catalogue.semantics import PUBLIC, check_semantics
     from po3d_ppl.questions.public import public_reading
     from po3d_ppl.reasoning import ScenePriors, SceneReasoner
 
-    priors = backend.scene_priors(priors or ScenePriors())
+    priors = priors or ScenePriors()
+    priors = backend.scene_priors(priors) if proposal_priors else priors
     public = check_semantics(semantics) == PUBLIC
 
     methods = tuple(methods)
