@@ -64,7 +64,7 @@ _SUBTYPE_EXTRA = {
 #: How the facing direction of an object (``filter_pose`` value / ``query_pose`` answer) is said.
 POSE_FORMS: MappingProxyType = MappingProxyType({
     "front_pose": ("front", "forward", "towards the camera", "toward the camera", "the front"),
-    "back_pose": ("back", "backward", "away from the camera", "the back", "backwards"),
+    "back_pose": ("back", "backward", "away from the camera", "the back", "backwards", "away"),
     "left_pose": ("left", "to the left", "the left", "leftward"),
     "right_pose": ("right", "to the right", "the right", "rightward"),
 })

@@ -122,7 +122,7 @@ def draw_assignment(template: Template, rng: np.random.Generator, redundant: boo
             fill = FILL["Partname"] if name in slots and name not in not_null else 1.0
             if name in needed or float(rng.random()) < fill:
                 pool = ontology.CANONICAL_PARTNAME_VALUES
-                if shapes and float(rng.random()) < 0.85:
+                if shapes:  # the named object's own parts: "the car's headlight" is the car's head_light
                     shape = shapes[0]
                     pool = _PARTS_OF_CATEGORY[shape if shape in ontology.CATEGORIES else ontology.CATEGORY_OF[shape]]
                 allowed = template.param_values[name]

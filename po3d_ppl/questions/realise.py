@@ -454,6 +454,12 @@ class Realiser:
                 x = self.part_np(part, "def")
                 word = self.pick(("occluded", "hidden", "partially occluded", "blocked", "covered",
                                   "occluded by something", "blocked from view"))
+                owner = part.owner
+                if (owner is not None and part.name and not part.posts and self.chance(0.2)
+                        and (owner.attrs or owner.shape or owner.posts or owner.occluded)):
+                    bare = " ".join([*self._part_adjectives(part), self._part_noun(part, owner.shape)])
+                    return (self.pick(_INTROS) + self.np(owner, "indef") + "; "
+                            + self.pick((f"is its {bare} {word}?", f"is the {bare} of it {word}?")))
                 return f"Is {x} {word}?"
             owner = part.owner
             if (owner is not None and part.name and not part.posts and self.chance(0.2)
@@ -484,6 +490,10 @@ class Realiser:
             what = self._what_relation(d)
             if what is not None:
                 return what
+        if (attr == "shape" and len(d.posts) == 1 and d.posts[0][0].startswith("whose ") and d.via is None
+                and not d.posts[0][0].startswith(("whose pose", "whose direction")) and not d.attrs
+                and d.shape is None and not d.occluded and not d.other and self.chance(0.3)):
+            return f"{d.posts[0][0][:1].upper()}{d.posts[0][0][1:]}?"  # "Whose back wheel is occluded?"
         if attr == "shape" and d.posts and not d.other and self.chance(0.15):  # "Which bus has a red wheel?"
             sing = d.posts[-1][0]
             if sing.startswith(("that ", "which ")) and not sing.startswith(("that is ", "which is ")):
@@ -498,6 +508,10 @@ class Realiser:
         intro = self._maybe_hoist(d)
         x = self.np(d, "def")
         if attr == "pose":
+            if self.chance(0.12):  # "Is the bus facing left, right, towards the camera or away from it?"
+                options = [self.pick(lx.POSE_FORMS[p]) for p in self.rng.permutation(sorted(lx.POSE_FORMS))]
+                verb = self.pick(("facing", "pointing", "heading", "turned"))
+                return intro + f"Is {x} {verb} {', '.join(options[:-1])} or {options[-1]}?"
             return intro + self.pick(_POSE_QUESTIONS)(x)
         question = self._attribute_question(attr, x)
         if attr == "shape" and not intro and self.chance(0.15):
@@ -519,7 +533,7 @@ class Realiser:
 
     def _occlusion_statement(self, d: _Obj) -> str | None:
         """"The bus is occluded by a thing; what colour is it?", "The car occludes the wheel of a thing; ..."."""
-        if d.other or not self.chance(0.2):
+        if d.other or not self.chance(0.35 if d.part_statement is not None else 0.2):
             return None
         if d.part_statement is not None and not d.attrs and not d.shape and len(d.posts) == 1 and not d.occluded:
             noun, ref = d.part_statement
@@ -566,6 +580,10 @@ class Realiser:
                               f"What hides {ref}?", f"What is {ref} hidden by?", f"Which {thing} is occluding {ref}?",
                               f"What kind of {thing} occludes {ref}?", f"What type of {thing} is occluding {ref}?",
                               f"What shape is the {thing} that occludes {ref}?", f"What is {ref} blocked by?"))
+        if self.chance(0.5):
+            verb = self.pick(("occlude", "hide", "block", "cover", "obscure", "partially hide"))
+            return self.pick((f"What does {ref} {verb}?", f"What does {ref} {verb}?", f"Which {thing} does {ref} {verb}?",
+                              f"What kind of {thing} does {ref} {verb}?"))
         return self.pick((f"What is occluded by {ref}?", f"What does {ref} occlude?", f"What is {ref} occluding?",
                           f"Which {thing} is occluded by {ref}?", f"What is hidden by {ref}?",
                           f"What does {ref} block?", f"What kind of {thing} does {ref} occlude?",
@@ -683,6 +701,9 @@ class Realiser:
                 return self.pick((f"How many things are either {pa} or {pb}?", f"How many {pa} or {pb} are there?",
                                   f"What number of objects are {pa} or {pb}?",
                                   f"What is the total number of {pa} and {pb}?",
+                                  f"How many {pa} and {pb} are there in total?",
+                                  f"How many {pa} and {pb} are there altogether?",
+                                  f"Count the {pa} and the {pb}.",
                                   f"How many objects are {pa} or {pb}?"))
             return self.pick((f"Are there any {pa} or {pb}?", (f"Is there anything that is either a "
                               f"{self.np(a, 'indef').removeprefix('a ')} or a {self.np(b, 'indef').removeprefix('a ')}?")))
