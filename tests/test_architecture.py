@@ -27,7 +27,8 @@ ALLOWED = {
     "questions": BASE | {"catalogue", "world", "language"},
     "evidence": BASE | {"world"},
     "perception": BASE | {"world", "evidence", "model_store"},
-    "reasoning": BASE | {"catalogue", "world", "evidence", "language"},
+    # model_store: the shipped answer calibration (reasoning/answer_calibration.py) is read with its sha256 check
+    "reasoning": BASE | {"catalogue", "world", "evidence", "language", "model_store"},
     "pipeline": BASE | {"language", "reasoning", "evidence", "perception"},
     "evaluation": None,  # benchmarks every stage against the others
     "cli": None,  # the command line may use every stage
