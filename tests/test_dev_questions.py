@@ -27,7 +27,7 @@ def _records(name: str) -> list[dict]:
 
 @cache
 def records() -> tuple[dict, ...]:
-    return tuple(_records("generated.jsonl") + _records("hand_written.jsonl"))
+    return tuple(_records("generated.jsonl") + _records("hand_written.jsonl") + _records("compare_integer_extra.jsonl"))
 
 
 @cache
