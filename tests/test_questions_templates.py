@@ -187,17 +187,6 @@ def test_clevr_core_families():
     three_hop = clevr["clevr/three_hop.json"][0]
     assert [n["type"] for n in three_hop.nodes].count("relate_filter_unique") == 2
     assert len(load_template_folder("extra")["extra/forms.json"]) == 16
-    assert len(load_template_folder("extra")["extra/compare_forms.json"]) == 18
-
-
-def test_extra_compare_forms_file_is_current():
-    """``extra/compare_forms.json`` is what ``templates/extra/build_compare_forms.py`` writes."""
-    from importlib import resources
-
-    from po3d_ppl.questions.templates.extra.build_compare_forms import build
-
-    root = resources.files("po3d_ppl.questions.templates").joinpath("extra")
-    assert json.loads(root.joinpath("compare_forms.json").read_text()) == build()
 
 
 def test_clevr_template_files_are_current():
@@ -216,7 +205,7 @@ def test_parser_corpus_covers_every_family_with_typed_programs_and_is_determinis
     from po3d_ppl.questions.parser_corpus import CorpusConfig, corpus_families, generate_corpus
 
     families = corpus_families()
-    assert len(families) == 61 + 25 + 8 + 90 + 16 + 17 + 18
+    assert len(families) == 61 + 25 + 8 + 90 + 16 + 17
     a = generate_corpus(400, CorpusConfig(seed=5))
     b = generate_corpus(400, CorpusConfig(seed=5))
     assert [(e.question, program_to_tokens(e.program)) for e in a] == [

@@ -1000,8 +1000,7 @@ class Realiser:
                     f"Are there a smaller number of {x} than {y}?", f"Are there fewer {x} compared to {y}?",
                     f"Is the {n} of {x} {small} than the {n} of {y}?",
                     f"Is the {n} of {x} lower than the {m} of {y}?", f"Is the {n} of {x} lower than that of {y}?",
-                    f"Is there a lower {n} of {x} than {y}?", f"Are the {x} outnumbered by the {y}?",
-                    f"Are {x} outnumbered by {y}?"]
+                    f"Is there a lower {n} of {x} than {y}?"]
         return [f"Is there the same {n} of {x} and {y}?", f"Is there an equal {n} of {x} and {y}?",
                 f"Are there as many {x} as there are {y}?", f"Is the {n} of {x} the same as the {m} of {y}?",
                 f"Is the {n} of {x} equal to the {m} of {y}?", f"Are {x} and {y} equal in number?",
@@ -1034,7 +1033,7 @@ class Realiser:
                       f"Is the number of {x} {less} than the number of {y}?",
                       f"Is the number of {x} smaller than that of {y}?", f"Are {x} fewer than {y}?",
                       f"Do {y} outnumber {x}?" if False else f"Are there fewer {x} than {y}?",
-                      f"Is the count of {x} less than the count of {y}?", f"Are the {x} outnumbered by the {y}?"]
+                      f"Is the count of {x} less than the count of {y}?"]
         else:
             frames = [f"Are there the same number of {x} and {y}?", f"Are there as many {x} as {y}?",
                       f"Is the number of {x} the same as the number of {y}?",
