@@ -10,7 +10,7 @@ import pytest
 from po3d_ppl.errors import InputError, ModelFileError
 from po3d_ppl.evaluation.answer_calibration import fit
 from po3d_ppl.evaluation.calibration import calibration_report
-from po3d_ppl.evaluation.runner import CALIBRATED, Prediction, QuestionItem, QuestionRecord, _recalibrated, variants_of
+from po3d_ppl.evaluation.runner import CALIBRATED, Prediction, QuestionItem, QuestionRecord, recalibrated, variants_of
 from po3d_ppl.reasoning import AnswerDistribution
 from po3d_ppl.reasoning.answer_calibration import (
     AnswerCalibration,
@@ -85,7 +85,7 @@ def test_fit_recovers_overconfidence_and_the_calibrated_variant_is_better_on_new
     assert calibration.types["Color"].smoothing > 0  # a temperature alone cannot reach a truth with no mass
     held_out = _overconfident_records(400, 1)
     for record in held_out:
-        record.predictions[CALIBRATED] = _recalibrated(record, calibration)
+        record.predictions[CALIBRATED] = recalibrated(record, calibration)
     raw, calibrated = calibration_report(held_out, "ours"), calibration_report(held_out, CALIBRATED)
     assert calibrated.accuracy == raw.accuracy  # monotone: the top answer never changes
     assert calibrated.ece < 0.05 < raw.ece

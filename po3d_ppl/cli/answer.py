@@ -58,30 +58,30 @@ def answer(
 
     if (scene is None) == (image is None):
         raise InputError("--scene/--image", "give exactly one of a scene file or an image")
-    from po3d_ppl.perception.priors import load_priors
-
-    priors, calibration = load_priors(), None
+    parser = calibration = None  # the shipped parser; no answer calibration for the simulated sensor
     if image is not None:
         if check_semantics(semantics) == PUBLIC:
             raise InputError("--semantics", "public semantics reads the public annotation of a scene file; use "
                                             "--scene with it")
-        from po3d_ppl.perception.scene_parser import ImageParser
-        from po3d_ppl.reasoning.answer_calibration import load_answer_calibration
+        from po3d_ppl.pipeline import load_pipeline
 
-        perception = ImageParser.load()
-        reasoner = SceneReasoner(perception.evidence(image), perception.scene_priors(priors), semantics=semantics)
-        calibration = load_answer_calibration()  # fitted on perception's evidence: for images only
+        pipeline = load_pipeline()
+        reasoner = SceneReasoner(pipeline.perception.evidence(image), pipeline.priors, semantics=semantics)
+        parser, calibration = pipeline.parser, pipeline.answer_calibration  # fitted on perception's evidence
     else:
+        from po3d_ppl.perception.priors import load_priors
+
         truth = load_scene_arg(scene, index)
         truth = public_reading(truth) if check_semantics(semantics) == PUBLIC else truth
-        reasoner = SceneReasoner(simulated_evidence(truth, noise=noise, seed=seed), priors, semantics=semantics)
+        reasoner = SceneReasoner(simulated_evidence(truth, noise=noise, seed=seed), load_priors(),
+                                 semantics=semantics)
     parse = None
     if program is not None:
         dist = reasoner.infer(read_program_arg(program, allow_text=True), method, num_samples=samples, seed=seed,
                               budget=budget)
         dist = dist if joint else dist.given_presuppositions(warn_above=None)
     else:
-        dist, parse = answer_question(reasoner, question, n_best=n_best, method=method, num_samples=samples,
+        dist, parse = answer_question(reasoner, question, parser, n_best=n_best, method=method, num_samples=samples,
                                       seed=seed, budget=budget, presuppose=False)
         dist = dist if joint else dist.given_presuppositions(warn_above=None)
     if calibration is not None:

@@ -65,28 +65,27 @@ def demo(
         for name in files:
             if per_file[name] and len(picked) < questions:
                 picked.append((name, per_file[name].pop(0)))
-    from po3d_ppl.perception.priors import load_priors
-
-    parser, priors, calibration = QuestionParser.load(), load_priors(), None
+    calibration = None
     if evidence == "image":
         from po3d_ppl.perception.overlay import draw_overlay
-        from po3d_ppl.perception.scene_parser import ImageParser
+        from po3d_ppl.pipeline import load_pipeline
 
         with console.status("parsing the image (render-and-compare, parts by projection)..."):
-            perception = ImageParser.load()
-            parsed = perception.parse(rendered.image)
+            pipeline = load_pipeline()
+            parsed = pipeline.scene(rendered.image)
         cv2.imwrite(str(out / "overlay.png"), draw_overlay(rendered.image, parsed.proposals)[..., ::-1])
         console.print(f"perception: {parsed.evidence.num_objects} objects found in {parsed.timings['total']:.1f} s "
                       f"-> {out / 'overlay.png'}", markup=False, highlight=False)
         for note in parsed.notes:
             console.print(f"  note: {note}", markup=False, highlight=False)
-        from po3d_ppl.reasoning.answer_calibration import load_answer_calibration
-
-        reasoner = SceneReasoner(parsed.evidence, perception.scene_priors(priors))
-        calibration = load_answer_calibration()  # fitted on perception's evidence: for images only
+        reasoner = SceneReasoner(parsed.evidence, pipeline.priors)
+        parser, calibration = pipeline.parser, pipeline.answer_calibration  # fitted on perception's evidence
         source = "perception on the image"
     else:
-        reasoner = SceneReasoner(simulated_evidence(scene, noise=noise, seed=seed), priors)
+        from po3d_ppl.perception.priors import load_priors
+
+        parser = QuestionParser.load()
+        reasoner = SceneReasoner(simulated_evidence(scene, noise=noise, seed=seed), load_priors())
         source = f"ground truth with sensor noise {noise}"
     table = Table(title=f"answers given their presuppositions (evidence: {source})", show_lines=True)
     for column in ("question", "parsed program", "answer distribution", "truth"):

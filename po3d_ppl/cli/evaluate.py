@@ -61,9 +61,10 @@ def resolve_priors(priors: str, model_dir: Path | None = None):
 
 def _run(data: Path, split: str, methods: str, noise: float, seed: int, limit, cache: Path | None, parse: bool,
          device: str, threads: int, console, label: str, perception: str = "simulated", semantics: str = "intended",
-         priors: str = "shipped", model_dir: Path | None = None, recalibrate: bool = True):
+         priors: str = "shipped", model_dir: Path | None = None, recalibrate: bool = True, backend=None):
     """(dataset, run, cache) of one evaluation; with image evidence, ``ours`` is also reported recalibrated by the
-    shipped answer calibration (``ours_calibrated``), when one is shipped."""
+    shipped answer calibration (``ours_calibrated``), when one is shipped. ``backend``: an already loaded
+    ``ImageBackend`` to reuse (its models are read once)."""
     import torch
 
     from po3d_ppl.errors import InputError
@@ -79,7 +80,8 @@ def _run(data: Path, split: str, methods: str, noise: float, seed: int, limit, c
         raise InputError("--perception", f"{perception!r} is not a back-end; use simulated or image")
     from po3d_ppl.reasoning.answer_calibration import load_answer_calibration
 
-    backend = SimulatedBackend(noise, seed) if perception == "simulated" else ImageBackend(models_dir=model_dir)
+    if backend is None:
+        backend = SimulatedBackend(noise, seed) if perception == "simulated" else ImageBackend(models_dir=model_dir)
     calibration = None
     if recalibrate and perception == "image" and "ours" in chosen:
         calibration = load_answer_calibration(model_dir)
@@ -213,7 +215,7 @@ def train_answer_calibration_command(
 
     from po3d_ppl.evaluation.answer_calibration import fit
     from po3d_ppl.evaluation.calibration import calibration_report
-    from po3d_ppl.evaluation.runner import CALIBRATED, _recalibrated
+    from po3d_ppl.evaluation.runner import CALIBRATED, recalibrated
     from po3d_ppl.model_store import models_dir, write_entry
     from po3d_ppl.reasoning.answer_calibration import MODEL_NAME
 
@@ -222,7 +224,7 @@ def train_answer_calibration_command(
                            "answer calibration", perception, priors=priors, model_dir=model_dir, recalibrate=False)
     calibration, per_type = fit(run.records)
     for record in run.records:
-        record.predictions[CALIBRATED] = _recalibrated(record, calibration)
+        record.predictions[CALIBRATED] = recalibrated(record, calibration)
     before, after = calibration_report(run.records, "ours"), calibration_report(run.records, CALIBRATED)
     directory = Path(out) if out is not None else models_dir()
     directory.mkdir(parents=True, exist_ok=True)

@@ -177,17 +177,18 @@ _CACHE = typer.Option(None, "--cache", help="Evidence cache directory (shared wi
                                             "image`; default: DATA/eval_cache).")
 
 
-def evidence_figures(data: Path, split: str, limit: int | None, store, console) -> dict:
+def evidence_figures(data: Path, split: str, limit: int | None, store, console, backend=None) -> dict:
     """Perception's figures on ``split`` from the evidence cache ``store`` (each image parsed once): attributes,
     parts and occlusion, the objects under the scene parser's camera, and the projected tables' calibration (each
-    read as its posterior under the priors the image pipeline uses)."""
+    read as its posterior under the priors the image pipeline uses). ``backend``: a loaded ``ImageBackend`` to
+    reuse."""
     from po3d_ppl.evaluation.backends import ImageBackend
     from po3d_ppl.evaluation.evidence_scores import EvidenceCounts
     from po3d_ppl.evaluation.objects import EvidenceAsProposals, score_image, summarise
     from po3d_ppl.evaluation.projection import as_tensors, measure
     from po3d_ppl.perception.priors import load_priors
 
-    backend = ImageBackend()
+    backend = backend or ImageBackend()
     counts, outcomes = EvidenceCounts(priors=backend.scene_priors(load_priors())), []
     for evidence, scene in _cached_evidence(data, split, limit, store, backend, console, "evidence"):
         counts.add(evidence, scene)

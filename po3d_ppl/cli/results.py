@@ -81,13 +81,8 @@ def _models(backend: dict) -> str:
     return ", ".join(f"{name} `{sha[:12]}`" for name, files in sorted(models.items()) for sha in files.values())
 
 
-def _timings(data: Path, images: int) -> dict:
+def _timings(dataset, parser, images: int) -> dict:
     """Per-stage seconds of fresh parses (no cache) of the first ``images`` images, median per stage."""
-    from po3d_ppl.perception.scene_parser import ImageParser
-    from po3d_ppl.questions.dataset import load_dataset
-
-    dataset = load_dataset(data)
-    parser = ImageParser.load()
     stages: dict[str, list[float]] = {}
     for index in dataset.split_indices("all")[:images]:
         parsed = parser.parse(dataset.image_path(index))
@@ -96,15 +91,14 @@ def _timings(data: Path, images: int) -> dict:
     return {stage: statistics.median(values) for stage, values in stages.items()}
 
 
-def _priors_comparison(dataset, split, limit, store, fitted_run, device) -> tuple[str, list[dict]]:
+def _priors_comparison(dataset, split, limit, store, fitted_run, device, backend) -> tuple[str, list[dict]]:
     """Ours with the hand-set priors (all of them, the projected tables' too) on the first ``limit`` images,
     beside the shipped priors' records there (the world's rates; the projected tables' at their proposals')."""
-    from po3d_ppl.evaluation.backends import ImageBackend
     from po3d_ppl.evaluation.calibration import calibration_report
     from po3d_ppl.evaluation.runner import evaluate
     from po3d_ppl.evidence import ScenePriors
 
-    hand = evaluate(dataset, split, ImageBackend(), ("ours",), cache=store, limit=limit, priors=ScenePriors(),
+    hand = evaluate(dataset, split, backend, ("ours",), cache=store, limit=limit, priors=ScenePriors(),
                     device=device, proposal_priors=False)
     images = {r.item.image_index for r in hand.records}
     fitted = [r for r in fitted_run.records if r.item.image_index in images]
@@ -142,6 +136,7 @@ def report_command(
 
     from po3d_ppl.cli.evaluate import _progress, _run, resolve_priors
     from po3d_ppl.cli.objects import _evidence_cache, evidence_figures
+    from po3d_ppl.evaluation.backends import ImageBackend
     from po3d_ppl.evaluation.calibration import calibration_reports
     from po3d_ppl.evaluation.metrics import table1
     from po3d_ppl.evaluation.plots import difficulty_plot, noise_sweep_plot, reliability_diagrams
@@ -157,14 +152,16 @@ def report_command(
                           "--priors-limit", str(priors_limit), "--sweep", sweep, "--sweep-limit", str(sweep_limit),
                           "--timing-images", str(timing_images)] + (["--limit", str(limit)] if limit else []))
     store = _evidence_cache(data, cache)
-    perception = evidence_figures(data, split, limit, store, console)
+    backend = ImageBackend()  # the models are read once for every part of the report
+    perception = evidence_figures(data, split, limit, store, console, backend)
     dataset, run, store = _run(data, split, "ours,thresholded,soft,oracle", 0.0, 0, limit, cache, False, device,
-                               threads, console, "eval vqa (image)", "image")
+                               threads, console, "eval vqa (image)", "image", backend=backend)
     reports = calibration_reports(run)
     reliability_diagrams(reports, figures_dir / "reliability.png",
                          f"{run.images} images, {len(run.records)} questions, perception on the images")
     difficulty_plot(difficulty_panels(run), figures_dir / "difficulty.png")
-    priors_md, priors_rows = _priors_comparison(dataset, split, min(priors_limit, run.images), store, run, device)
+    priors_md, priors_rows = _priors_comparison(dataset, split, min(priors_limit, run.images), store, run, device,
+                                                backend)
     noises = [float(x) for x in sweep.split(",") if x.strip()]
     points = []
     if noises:
@@ -175,7 +172,7 @@ def report_command(
                                  progress=lambda n, d, t: bar.update(task, completed=d, total=t,
                                                                      description=f"noise {n:g}"))
         noise_sweep_plot(points, figures_dir / "noise_sweep.png", "simulated sensor: accuracy and ECE against noise")
-    stage_seconds = _timings(data, timing_images) if timing_images else {}
+    stage_seconds = _timings(dataset, backend.parser, timing_images) if timing_images else {}
     by_variant = {r.method: r for r in reports}
     rows = table1(run)
     text = _markdown(command, run, perception, rows, reports, by_variant, priors_md, points, stage_seconds,

@@ -27,7 +27,8 @@ from po3d_ppl.evidence import ScenePriors
 from po3d_ppl.perception.projection_calibration import TABLE_PRIOR
 
 
-def prior_logodds(priors: ScenePriors, table: str) -> float:
+def table_prior_logodds(priors: ScenePriors, table: str) -> float:
+    """logit of the scene model's prior of a projected table's latent."""
     p = getattr(priors, TABLE_PRIOR[table])
     return math.log(p / (1.0 - p))
 
@@ -85,7 +86,7 @@ class EvidenceCounts:
                     c["part_color_ok"] += int(STATE_COLOR[state]) == ontology.COLORS.index(style.color)
                     c["part_material_ok"] += int(STATE_MATERIAL[state]) == ontology.MATERIALS.index(style.material)
         for name, (values, truths) in table_entries(evidence, scene, min_iou).items():
-            prior = prior_logodds(self.priors, name)
+            prior = table_prior_logodds(self.priors, name)
             values = [v + prior for v in values]  # the entry's posterior log-odds
             kept = self.entries.setdefault(name, ([], []))
             kept[0].extend(values)

@@ -221,7 +221,7 @@ def evaluate(dataset, split: str, backend: EvidenceBackend, methods: Sequence[st
         for item in by_image[index]:
             record = _answer(item, scene, reasoner, methods, once, budget, timings, failures, semantics)
             if answer_calibration is not None and "ours" in record.predictions:
-                record.predictions[CALIBRATED] = _recalibrated(record, answer_calibration)
+                record.predictions[CALIBRATED] = recalibrated(record, answer_calibration)
                 failures[CALIBRATED] += record.predictions["ours"].failure is not None
             records.append(record)
         if progress is not None:
@@ -230,7 +230,8 @@ def evaluate(dataset, split: str, backend: EvidenceBackend, methods: Sequence[st
                    {"hits": cache.hits, "misses": cache.misses}, failures, asdict(priors))
 
 
-def _recalibrated(record: QuestionRecord, calibration) -> Prediction:
+def recalibrated(record: QuestionRecord, calibration) -> Prediction:
+    """``ours`` of ``record`` recalibrated by an :class:`~po3d_ppl.reasoning.answer_calibration.AnswerCalibration`."""
     from po3d_ppl.reasoning import AnswerDistribution
 
     ours = record.predictions["ours"]

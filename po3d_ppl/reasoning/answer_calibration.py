@@ -57,13 +57,8 @@ def answer_support(answer_type: str, answers) -> list:
     from po3d_ppl.reasoning.values import support
 
     answers = list(answers)
-    if answer_type == "Integer":
-        values = support("Integer", max([MIN_INTEGER_SUPPORT, *(a for a in answers if isinstance(a, int))]))
-    else:
-        try:
-            values = support(answer_type, 0)
-        except KeyError:
-            values = []
+    largest = max([MIN_INTEGER_SUPPORT, *(a for a in answers if isinstance(a, int) and not isinstance(a, bool))])
+    values = support(answer_type, largest)
     known = set(map(repr, values))
     return values + [a for a in answers if repr(a) not in known]
 
