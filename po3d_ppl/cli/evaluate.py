@@ -195,8 +195,10 @@ def calibration_command(
 
 
 def train_answer_calibration_command(
-    data: Path = _DATA, split: str = typer.Option("all", "--split", help="Split of the VALIDATION dataset (all: "
-                                                                        "every image of a held-out seed)."),
+    data: list[Path] = typer.Option(..., "--data", help="VALIDATION dataset directory (repeatable: several seeds "
+                                    "make the fit less tied to one seed's accuracy)."),
+    split: str = typer.Option("all", "--split", help="Split of each VALIDATION dataset (all: every image of a "
+                                                     "held-out seed)."),
     limit: int = _LIMIT, cache: Path = _CACHE, device: str = _DEVICE, threads: int = _THREADS,
     perception: str = typer.Option("image", "--perception", help="Evidence the calibration is for: image (the "
                                    "shipped perception; what the pipeline applies it to) or simulated."),
@@ -220,28 +222,40 @@ def train_answer_calibration_command(
     from po3d_ppl.reasoning.answer_calibration import MODEL_NAME
 
     console = Console()
-    dataset, run, _ = _run(data, split, "ours", noise, seed, limit, cache, False, device, threads, console,
-                           "answer calibration", perception, priors=priors, model_dir=model_dir, recalibrate=False)
-    calibration, per_type = fit(run.records)
-    for record in run.records:
+    records, images, seeds, configs = [], 0, [], []
+    for dataset_dir in data:
+        dataset, run, _ = _run(dataset_dir, split, "ours", noise, seed, limit, cache, False, device, threads, console,
+                               f"answer calibration ({dataset_dir.name})", perception, priors=priors,
+                               model_dir=model_dir, recalibrate=False)
+        records += run.records
+        images += run.images
+        seeds.append(dataset.manifest.get("seed"))
+        configs.append(dataset.manifest.get("config"))
+    calibration, per_type = fit(records)
+    for record in records:
         record.predictions[CALIBRATED] = recalibrated(record, calibration)
-    before, after = calibration_report(run.records, "ours"), calibration_report(run.records, CALIBRATED)
+    before, after = calibration_report(records, "ours"), calibration_report(records, CALIBRATED)
     directory = Path(out) if out is not None else models_dir()
     directory.mkdir(parents=True, exist_ok=True)
-    words = ["po3d", "train", "answer-calibration", "--data", str(data), "--split", split, "--perception",
-             perception, "--priors", priors]
+    words = ["po3d", "train", "answer-calibration"]
+    for dataset_dir in data:
+        words += ["--data", str(dataset_dir)]
+    words += ["--split", split, "--perception", perception, "--priors", priors]
     words += ["--limit", str(limit)] if limit else []
     words += ["--noise", str(noise), "--seed", str(seed)] if perception == "simulated" else []
     words += ["--out", str(out)] if out is not None else []
     words += ["--model-dir", str(model_dir)] if model_dir is not None else []
-    metrics = {"questions": len(run.records), "images": run.images, "types": per_type,
+    words += ["--cache", str(cache)] if cache is not None else []
+    metrics = {"questions": len(records), "images": images, "types": per_type,
                "fit_split": {"before": {k: before.row()[k] for k in ("accuracy", "mean_confidence", "ece", "nll")},
                              "after": {k: after.row()[k] for k in ("accuracy", "mean_confidence", "ece", "nll")}}}
     write_entry(MODEL_NAME, [calibration.save(directory)], directory, command=shlex.join(words),
-                data_seed=dataset.manifest.get("seed"), data_config=dataset.manifest.get("config"), metrics=metrics)
+                data_seed=seeds[0] if len(seeds) == 1 else seeds,
+                data_config=configs[0] if len(configs) == 1 else configs, metrics=metrics)
     console.print_json(json.dumps({"calibration": calibration.to_dict(), **metrics}))
-    console.print(f"answer calibration -> {directory / 'answer_calibration.json'} (fitted on {data}; report it on "
-                  "another seed)", markup=False, highlight=False)
+    fitted_on = ", ".join(map(str, data))
+    console.print(f"answer calibration -> {directory / 'answer_calibration.json'} (fitted on {fitted_on}; report "
+                  "it on another seed)", markup=False, highlight=False)
 
 
 def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:

@@ -243,7 +243,7 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
         "priors": [step("priors", train_priors, ["po3d", "train", "priors"], data=sets("priors")[0], split="train",
                         out=out)],
         "answer_calibration": [step("answer calibration", train_answer_calibration_command,
-                                    ["po3d", "train", "answer-calibration"], data=val, **scale.answer_calibration,
+                                    ["po3d", "train", "answer-calibration"], data=[val], **scale.answer_calibration,
                                     threads=threads, out=out, model_dir=out)],
     }
     return steps
