@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pytest
 import torch
@@ -87,3 +89,47 @@ def test_calibration_round_trips_and_is_checksummed(tmp_path):
     with pytest.raises(ModelFileError, match="object_calibration.safetensors"):
         load_calibration(tmp_path, required=True)
     assert load_calibration(tmp_path / "nowhere") == TableCalibration()  # nothing shipped there: raw scores
+
+
+@dataclass
+class _OneProposal:
+    """What :func:`silhouette_subtype_loglik` reads of the object parser's proposals."""
+
+    masks: torch.Tensor
+    ownership: torch.Tensor
+    pose_support: torch.Tensor
+
+    def __len__(self) -> int:
+        return 1
+
+
+def test_silhouette_term_prefers_the_rendered_subtype():
+    """Each of three cars, rendered alone, read with the car category sure and the true pose: its outline term
+    ranks its own subtype first among the cars, and the unrendered categories get the lowest term."""
+    from po3d_ppl import ontology
+    from po3d_ppl.perception.object_parser import yaw_of
+    from po3d_ppl.perception.scene_parser import SUBTYPE_CATEGORY, SUBTYPES, silhouette_subtype_loglik
+
+    camera = CameraPrior(640, 480).base
+    support = torch.arange(24, dtype=torch.float64)[None] * 15.0
+    config = SceneParserConfig()
+    car = ontology.CATEGORIES.index("car")
+    for subtype in ("truck", "sedan", "suv"):
+        x, y = 0.3, 0.4
+        # the pose bin whose world yaw is the object's rotation
+        bin_ = int(np.argmin([abs((yaw_of(camera, x, y, a) - 40.0 + 180.0) % 360.0 - 180.0)
+                              for a in support[0].tolist()]))
+        rotation = yaw_of(camera, x, y, float(support[0, bin_]))
+        shot = render_layout([ObjectSpec(subtype, "gray", "rubber", "large", rotation, x, y)], camera)
+        mask = torch.from_numpy(shot.object_ids == 0)
+        proposals = _OneProposal(mask[None], torch.where(mask, 0, -1), support)
+        subtype_ll = torch.where(SUBTYPE_CATEGORY == car, 0.0, -30.0).double()[None]
+        pose_ll = torch.full((1, 5, 24), -30.0, dtype=torch.float64)
+        pose_ll[0, :, bin_] = 0.0
+        size_ll = torch.tensor([[0.0, -30.0]], dtype=torch.float64)
+        terms = silhouette_subtype_loglik(proposals, [[x, y]], [0.0], subtype_ll, size_ll, pose_ll, camera, config)[0]
+        cars = [s for s in range(len(SUBTYPES)) if int(SUBTYPE_CATEGORY[s]) == car]
+        assert max(cars, key=lambda s: float(terms[s])) == SUBTYPES.index(subtype)
+        assert float(terms[SUBTYPES.index(subtype)]) > 0.9 * config.silhouette_weight
+        others = [s for s in range(len(SUBTYPES)) if s not in cars]
+        assert torch.all(terms[others] == terms[cars].min())

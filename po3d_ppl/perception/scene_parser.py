@@ -37,7 +37,7 @@ import torch
 from po3d_ppl import ontology
 from po3d_ppl.errors import InputError
 from po3d_ppl.evidence import DTYPE, NUM_STYLES, P, S, SceneEvidence, ScenePriors
-from po3d_ppl.perception.alignment import AlignmentConfig, align_silhouette
+from po3d_ppl.perception.alignment import AlignmentConfig, align_silhouette, best_shift
 from po3d_ppl.perception.image_input import ImageInput, load_image, project_points
 from po3d_ppl.perception.object_parser import parse_objects, yaw_of
 from po3d_ppl.perception.simulated import VISIBLE_PART_PIXELS
@@ -78,6 +78,15 @@ class SceneParserConfig:
     #: Align each proposal's subtype silhouette to its visible mask (yaw and pixel shift) before projecting parts
     #: (:mod:`po3d_ppl.perception.alignment`); ``None`` keeps the object parser's pose.
     alignment: AlignmentConfig | None = field(default_factory=AlignmentConfig)
+    #: Subtype evidence from the outline (:func:`silhouette_subtype_loglik`): every subtype of the proposal's likely
+    #: categories (probability >= ``silhouette_min_category``; the best one always) is rendered at the aligned pose,
+    #: within ``silhouette_yaw_offsets`` degrees and ``silhouette_shift_px`` pixels, and adds ``silhouette_weight``
+    #: x its best IoU with the visible mask to its log-likelihood. 0 turns it off. Chosen on 60 images of seed 712
+    #: (subtype accuracy 0.882 -> 0.917, NLL 0.426 -> 0.378 at 20).
+    silhouette_weight: float = 20.0
+    silhouette_yaw_offsets: tuple[float, ...] = (-6.0, 0.0, 6.0)
+    silhouette_shift_px: int = 6
+    silhouette_min_category: float = 0.05
 
     def __post_init__(self) -> None:
         if not (isinstance(self.pose_hypotheses, int) and self.pose_hypotheses >= 1):
@@ -237,6 +246,11 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
         xy, yaw_offsets = align_poses(proposals, xy, subtype_ll, size_ll, pose_ll, camera, config.alignment)
     timings["alignment"] = time.perf_counter() - t0
     t0 = time.perf_counter()
+    if config.silhouette_weight and n:
+        subtype_ll = subtype_ll + silhouette_subtype_loglik(proposals, xy, yaw_offsets, subtype_ll, size_ll,
+                                                            pose_ll, camera, config)
+    timings["silhouette"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
     tables, projections, positions, depths, best_view = _project(proposals, xy, yaw_offsets, subtype_ll, size_ll,
                                                                  pose_ll, camera, config, attributes, img)
     timings["projection"] = time.perf_counter() - t0
@@ -358,6 +372,45 @@ def align_poses(proposals, xy: list[list[float]], subtype_ll: torch.Tensor, size
             ground = backproject_to_plane(camera, moved)
             out_xy[i] = [float(ground[0, 0]), float(ground[0, 1])]
     return out_xy, offsets
+
+
+def silhouette_subtype_loglik(proposals, xy: list[list[float]], yaw_offsets: list[float], subtype_ll: torch.Tensor,
+                              size_ll: torch.Tensor, pose_ll: torch.Tensor, camera: Camera,
+                              config: SceneParserConfig) -> torch.Tensor:
+    """[N, 21] log-likelihood terms of each subtype from its outline: ``silhouette_weight`` x the best IoU of its
+    mesh's silhouette (at the proposal's aligned position, best azimuth of its category and yaw offset, most likely
+    size) with the visible mask, on the pixels no other proposal owns.
+
+    The attribute network confuses subtypes whose looks differ mainly in shape at its crop's resolution (sedan and
+    truck, SUV and wagon, airliner and jet: 0.85 of matched objects right on seed 716); their exact meshes' outlines
+    differ by whole image regions. Subtypes of categories below ``silhouette_min_category`` are not rendered and
+    get the lowest term of the proposal's rendered ones; proposals with too few visible pixels get no term."""
+    n = len(proposals)
+    terms = torch.zeros(n, len(SUBTYPES), dtype=DTYPE)
+    category_p = torch.softmax(category_marginal(subtype_ll), -1)
+    ownership = proposals.ownership.numpy()
+    min_pixels = config.alignment.min_pixels if config.alignment is not None else 0
+    for i in range(n):
+        mask = proposals.masks[i].numpy()
+        if int(mask.sum()) < max(min_pixels, 1):
+            continue
+        free = (ownership < 0) | (ownership == i)
+        x, y = xy[i]
+        size = ontology.SIZES[int(size_ll[i].argmax())]
+        best_category = int(category_p[i].argmax())
+        rendered = [s for s in range(len(SUBTYPES)) if int(SUBTYPE_CATEGORY[s]) == best_category
+                    or float(category_p[i, int(SUBTYPE_CATEGORY[s])]) >= config.silhouette_min_category]
+        for s in rendered:
+            c = int(SUBTYPE_CATEGORY[s])
+            azimuth = float(proposals.pose_support[i, int(pose_ll[i, c].argmax())])
+            yaw = yaw_of(camera, x, y, azimuth) + yaw_offsets[i]
+            iou = max(best_shift(_silhouette(_spec(SUBTYPES[s], size, x, y, yaw + offset), camera, mask.shape),
+                                 free, mask, config.silhouette_shift_px)[1]
+                      for offset in config.silhouette_yaw_offsets)
+            terms[i, s] = config.silhouette_weight * iou
+        others = [s for s in range(len(SUBTYPES)) if s not in rendered]
+        terms[i, others] = terms[i, rendered].min()
+    return terms
 
 
 def _mixed_styles(attributes: AttributeNet, img: ImageInput, masks: torch.Tensor,
