@@ -59,29 +59,34 @@ def resolve_priors(priors: str, model_dir: Path | None = None):
     return load_priors(Path(priors))
 
 
+def make_backend(perception: str, noise: float, seed: int, model_dir: Path | None = None):
+    """The evidence back-end named by ``--perception``: the simulated sensor or the shipped (or ``model_dir``'s)
+    image parser, whose models load once per back-end."""
+    from po3d_ppl.errors import InputError
+    from po3d_ppl.evaluation.backends import ImageBackend, SimulatedBackend
+
+    if perception not in ("simulated", "image"):
+        raise InputError("--perception", f"{perception!r} is not a back-end; use simulated or image")
+    return SimulatedBackend(noise, seed) if perception == "simulated" else ImageBackend(models_dir=model_dir)
+
+
 def _run(data: Path, split: str, methods: str, noise: float, seed: int, limit, cache: Path | None, parse: bool,
          device: str, threads: int, console, label: str, perception: str = "simulated", semantics: str = "intended",
          priors: str = "shipped", model_dir: Path | None = None, recalibrate: bool = True, backend=None):
     """(dataset, run, cache) of one evaluation; with image evidence, ``ours`` is also reported recalibrated by the
-    shipped answer calibration (``ours_calibrated``), when one is shipped. ``backend``: an already loaded
-    ``ImageBackend`` to reuse (its models are read once)."""
+    shipped answer calibration (``ours_calibrated``), when one is shipped. ``backend``: an already made
+    :func:`make_backend` to reuse (its models are read once)."""
     import torch
 
-    from po3d_ppl.errors import InputError
-    from po3d_ppl.evaluation.backends import ImageBackend, SimulatedBackend
     from po3d_ppl.evaluation.cache import EvidenceCache
     from po3d_ppl.evaluation.runner import evaluate, parse_methods
     from po3d_ppl.questions.dataset import load_dataset
+    from po3d_ppl.reasoning.answer_calibration import load_answer_calibration
 
     torch.set_num_threads(threads)
     chosen = parse_methods(methods)
     dataset = load_dataset(data)
-    if perception not in ("simulated", "image"):
-        raise InputError("--perception", f"{perception!r} is not a back-end; use simulated or image")
-    from po3d_ppl.reasoning.answer_calibration import load_answer_calibration
-
-    if backend is None:
-        backend = SimulatedBackend(noise, seed) if perception == "simulated" else ImageBackend(models_dir=model_dir)
+    backend = backend or make_backend(perception, noise, seed, model_dir)
     calibration = None
     if recalibrate and perception == "image" and "ours" in chosen:
         calibration = load_answer_calibration(model_dir)
@@ -222,11 +227,12 @@ def train_answer_calibration_command(
     from po3d_ppl.reasoning.answer_calibration import MODEL_NAME
 
     console = Console()
+    backend = make_backend(perception, noise, seed, model_dir)  # one model load for every dataset
     records, images, seeds, configs = [], 0, [], []
     for dataset_dir in data:
         dataset, run, _ = _run(dataset_dir, split, "ours", noise, seed, limit, cache, False, device, threads, console,
                                f"answer calibration ({dataset_dir.name})", perception, priors=priors,
-                               model_dir=model_dir, recalibrate=False)
+                               model_dir=model_dir, recalibrate=False, backend=backend)
         records += run.records
         images += run.images
         seeds.append(dataset.manifest.get("seed"))
@@ -250,8 +256,7 @@ def train_answer_calibration_command(
                "fit_split": {"before": {k: before.row()[k] for k in ("accuracy", "mean_confidence", "ece", "nll")},
                              "after": {k: after.row()[k] for k in ("accuracy", "mean_confidence", "ece", "nll")}}}
     write_entry(MODEL_NAME, [calibration.save(directory)], directory, command=shlex.join(words),
-                data_seed=seeds[0] if len(seeds) == 1 else seeds,
-                data_config=configs[0] if len(configs) == 1 else configs, metrics=metrics)
+                data_seed=seeds, data_config=configs, metrics=metrics)
     console.print_json(json.dumps({"calibration": calibration.to_dict(), **metrics}))
     fitted_on = ", ".join(map(str, data))
     console.print(f"answer calibration -> {directory / 'answer_calibration.json'} (fitted on {fitted_on}; report "

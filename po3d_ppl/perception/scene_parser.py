@@ -37,7 +37,7 @@ import torch
 from po3d_ppl import ontology
 from po3d_ppl.errors import InputError
 from po3d_ppl.evidence import DTYPE, NUM_STYLES, P, S, SceneEvidence, ScenePriors
-from po3d_ppl.perception.alignment import AlignmentConfig, align_silhouette, best_shift
+from po3d_ppl.perception.alignment import AlignmentConfig, align_silhouette
 from po3d_ppl.perception.image_input import ImageInput, load_image, project_points
 from po3d_ppl.perception.object_parser import parse_objects, yaw_of
 from po3d_ppl.perception.simulated import VISIBLE_PART_PIXELS
@@ -384,16 +384,17 @@ def silhouette_subtype_loglik(proposals, xy: list[list[float]], yaw_offsets: lis
     The attribute network confuses subtypes whose looks differ mainly in shape at its crop's resolution (sedan and
     truck, SUV and wagon, airliner and jet: 0.85 of matched objects right on seed 716); their exact meshes' outlines
     differ by whole image regions. Subtypes of categories below ``silhouette_min_category`` are not rendered and
-    get the lowest term of the proposal's rendered ones; proposals with too few visible pixels get no term."""
+    get the lowest term of the proposal's rendered ones; proposals with fewer visible pixels than the alignment
+    needs (``AlignmentConfig.min_pixels``) get no term."""
     n = len(proposals)
     terms = torch.zeros(n, len(SUBTYPES), dtype=DTYPE)
     category_p = torch.softmax(category_marginal(subtype_ll), -1)
     ownership = proposals.ownership.numpy()
-    min_pixels = config.alignment.min_pixels if config.alignment is not None else 0
+    # the alignment's search at every yaw offset and shift; its best IoU is the subtype's fit (no gain threshold)
+    search = AlignmentConfig(yaw_offsets=config.silhouette_yaw_offsets, max_shift_px=config.silhouette_shift_px,
+                             min_gain=0.0)
     for i in range(n):
         mask = proposals.masks[i].numpy()
-        if int(mask.sum()) < max(min_pixels, 1):
-            continue
         free = (ownership < 0) | (ownership == i)
         x, y = xy[i]
         size = ontology.SIZES[int(size_ll[i].argmax())]
@@ -402,12 +403,12 @@ def silhouette_subtype_loglik(proposals, xy: list[list[float]], yaw_offsets: lis
                     or float(category_p[i, int(SUBTYPE_CATEGORY[s])]) >= config.silhouette_min_category]
         for s in rendered:
             c = int(SUBTYPE_CATEGORY[s])
-            azimuth = float(proposals.pose_support[i, int(pose_ll[i, c].argmax())])
-            yaw = yaw_of(camera, x, y, azimuth) + yaw_offsets[i]
-            iou = max(best_shift(_silhouette(_spec(SUBTYPES[s], size, x, y, yaw + offset), camera, mask.shape),
-                                 free, mask, config.silhouette_shift_px)[1]
-                      for offset in config.silhouette_yaw_offsets)
-            terms[i, s] = config.silhouette_weight * iou
+            yaw = yaw_of(camera, x, y, float(proposals.pose_support[i, int(pose_ll[i, c].argmax())])) + yaw_offsets[i]
+
+            def render(offset: float, s=s, size=size, x=x, y=y, yaw=yaw, shape=mask.shape) -> np.ndarray:
+                return _silhouette(_spec(SUBTYPES[s], size, x, y, yaw + offset), camera, shape)
+
+            terms[i, s] = config.silhouette_weight * align_silhouette(render, mask, free, search).iou_after
         others = [s for s in range(len(SUBTYPES)) if s not in rendered]
         terms[i, others] = terms[i, rendered].min()
     return terms
