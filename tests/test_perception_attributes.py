@@ -151,6 +151,20 @@ def test_training_learns_and_is_deterministic(data, torch_one_thread):
     assert report["val_after"]["object.color"]["nll"] <= report["val_before"]["object.color"]["nll"] + 1e-6
 
 
+def test_part_shift_moves_the_image_against_the_part_mask():
+    from po3d_ppl.perception.train_attributes import shift_part_context
+
+    crops = torch.zeros(64, 5, 16, 16)
+    crops[:, :3, 6:10, 6:10] = 1.0  # the part's pixels, under its mask
+    crops[:, 3, 6:10, 6:10] = 1.0
+    crops[:, 4, 4:12, 4:12] = 1.0
+    moved = shift_part_context(crops, TrainConfig(part_shift=0.2), torch.Generator().manual_seed(0))
+    assert torch.equal(moved[:, 3], crops[:, 3])  # the mask stays where the projection put it
+    rgb_under_mask = (moved[:, 0] * crops[:, 3]).sum((1, 2)) / crops[:, 3].sum((1, 2))
+    assert (rgb_under_mask < 0.99).float().mean() > 0.5  # most samples: the part is no longer exactly under it
+    assert torch.equal(shift_part_context(crops, TrainConfig(part_shift=0.0), torch.Generator()), crops)
+
+
 def test_temperature_fit_recovers_a_known_scale_and_ece_is_bounded():
     g = torch.Generator().manual_seed(0)
     logits = torch.randn(4000, 5, generator=g) * 2

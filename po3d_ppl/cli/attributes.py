@@ -80,6 +80,10 @@ def train_attributes_command(
     lr: Annotated[float, typer.Option("--lr", help="Peak learning rate (one-cycle).")] = 3e-3,
     part_fraction: Annotated[float, typer.Option(
         "--part-fraction", help="Fraction of the training parts seen per epoch (a random subset).")] = 0.25,
+    part_shift: Annotated[float, typer.Option(
+        "--part-shift", min=0.0, max=0.5,
+        help="Move part crops' image against their mask by up to this fraction of the side (projected masks are "
+             "off the part).")] = 0.12,
     max_steps: Annotated[int | None, typer.Option("--max-steps", min=1, help="Stop after this many steps.")] = None,
     splits: Annotated[str, typer.Option("--splits", help="Comma-separated splits of each --data to train on.")
                       ] = "train",
@@ -114,7 +118,7 @@ def train_attributes_command(
     torch.set_num_threads(threads)
     console = Console()
     config = TrainConfig(seed=seed, epochs=epochs, batch_size=batch_size, lr=lr, part_fraction=part_fraction,
-                         max_steps=max_steps)
+                         part_shift=part_shift, max_steps=max_steps)
     split_list = [s.strip() for s in splits.split(",") if s.strip()]
     train = AttributeData.concat([_load(console, d, s, config.net, cache) for d in data for s in split_list])
     val = _load(console, data[0], val_split, config.net, cache)
@@ -149,6 +153,7 @@ def train_attributes_command(
     words = ["po3d", "train", "attributes", *[w for d in data for w in ("--data", str(d))], "--seed", str(seed),
              "--epochs", str(epochs),
              "--batch-size", str(batch_size), "--lr", str(lr), "--part-fraction", str(part_fraction),
+             "--part-shift", str(part_shift),
              "--splits", ",".join(split_list), "--val-split", val_split, "--threads", str(threads)]
     if max_steps is not None:
         words += ["--max-steps", str(max_steps)]

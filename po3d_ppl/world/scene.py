@@ -38,19 +38,29 @@ Vec3 = tuple[float, float, float]
 BBox = tuple[int, int, int, int]  # x, y, w, h (x2, y2 exclusive); all zero for an empty mask
 
 
-def occlusion_level(unoccluded_pixels: int, hidden_pixels: int) -> int:
-    """The public occlusion level (spec §1.6): 2 fully hidden, 1 occluded, 0 not occluded, -1 ambiguous.
+def occlusion_levels(unoccluded_pixels, hidden_pixels) -> np.ndarray:
+    """The public occlusion level (spec §1.6), elementwise over arrays of counts: 2 fully hidden, 1 occluded,
+    0 not occluded, -1 ambiguous.
 
     ``unoccluded_pixels`` = |before| (rendered alone), ``hidden_pixels`` = |before minus after|.
     """
-    b, o = unoccluded_pixels, hidden_pixels
-    if b - o < 1:
-        return 2
-    if o > 15 and b - o > 15:
-        return 1
-    if o < 1:
-        return 0
-    return -1
+    b = np.asarray(unoccluded_pixels, dtype=np.int64)
+    o = np.asarray(hidden_pixels, dtype=np.int64)
+    return np.select([b - o < 1, (o > 15) & (b - o > 15), o < 1], [2, 1, 0], default=-1)
+
+
+def occlusion_level(unoccluded_pixels: int, hidden_pixels: int) -> int:
+    """:func:`occlusion_levels` of one entity."""
+    return int(occlusion_levels(unoccluded_pixels, hidden_pixels))
+
+
+def occluder_mask(unoccluded_pixels, hidden_pixels, overlaps) -> np.ndarray:
+    """Elementwise :meth:`Occlusion.from_overlaps`: ``[..., J]`` whether object j occludes the entity, from its
+    counts ``[...]`` and its hidden-pixel overlap with each object ``[..., J]`` (for perception's graded
+    projections, which apply the rule to many renderings at once)."""
+    level = occlusion_levels(unoccluded_pixels, hidden_pixels)
+    can = ((level == 1) | (level == 2)) & (np.asarray(unoccluded_pixels) >= MIN_VISIBLE_BEFORE_PIXELS)
+    return can[..., None] & (np.asarray(overlaps) >= MIN_OCCLUDER_PIXELS)
 
 
 @dataclass(frozen=True)
