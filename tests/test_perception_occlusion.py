@@ -51,7 +51,7 @@ def test_unshifted_grading_is_the_world_annotation(rendered):
 
 
 def test_shifts_grade_the_parts_near_an_occluders_edge(rendered):
-    views, measures = rendered
+    views, _ = rendered
     car = 1
     others = [0, 2]
     parts = len(ontology.PARTS[CAR.subtype])
