@@ -33,8 +33,10 @@ from po3d_ppl.perception.attributes import (
 from po3d_ppl.perception.calibration import fit_temperature, top_label_ece
 from po3d_ppl.perception.train_attributes import (
     AttributeData,
+    ProjectionJitter,
     TrainConfig,
     calibrate,
+    jittered_part_masks,
     scene_data,
     scene_masks,
     train_attributes,
@@ -163,6 +165,21 @@ def test_part_shift_moves_the_image_against_the_part_mask():
     rgb_under_mask = (moved[:, 0] * crops[:, 3]).sum((1, 2)) / crops[:, 3].sum((1, 2))
     assert (rgb_under_mask < 0.99).float().mean() > 0.5  # most samples: the part is no longer exactly under it
     assert torch.equal(shift_part_context(crops, TrainConfig(part_shift=0.0), torch.Generator()), crops)
+
+
+def test_jittered_part_masks_are_the_truth_without_jitter_and_move_with_it(rendered):
+    scene = rendered[0].scene
+    h, w = scene.camera.height, scene.camera.width
+    _, truth = scene_masks(scene, h, w)
+    exact = jittered_part_masks(scene, ProjectionJitter(0.0, 0.0, 0.0), 0)
+    assert [(i, raw) for i, raw, _ in exact] == [(i, raw) for i, raw, _ in truth]
+    assert all(torch.equal(a, b) for (_, _, a), (_, _, b) in zip(exact, truth))
+    moved = {(i, raw): m for i, raw, m in jittered_part_masks(scene, ProjectionJitter(6.0, 0.05, 0.0, seed=1), 0)}
+    ious = [float((m & moved[key]).sum() / (m | moved[key]).sum()) for key, m in
+            (((i, raw), m) for i, raw, m in truth) if key in moved]
+    assert ious and max(ious) <= 1.0 and sum(ious) / len(ious) < 0.95
+    again = {(i, raw): m for i, raw, m in jittered_part_masks(scene, ProjectionJitter(6.0, 0.05, 0.0, seed=1), 0)}
+    assert again.keys() == moved.keys() and all(torch.equal(again[k], moved[k]) for k in moved)  # seeded
 
 
 def test_temperature_fit_recovers_a_known_scale_and_ece_is_bounded():

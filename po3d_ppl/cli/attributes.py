@@ -22,16 +22,16 @@ def _bar(console, what: str):
                     console=console)
 
 
-def _load(console, data: Path, split: str, config, cache: Path | None, loader=None):
-    """One split's crops (``loader``: ``train_attributes.load_split`` or a reader with its signature) under a
-    progress bar."""
+def _load(console, data: Path, split: str, config, cache: Path | None, loader=None, **options):
+    """One split's crops (``loader``: ``train_attributes.load_split`` or a reader with its signature; ``options``
+    go to it) under a progress bar."""
     if loader is None:
         from po3d_ppl.perception.train_attributes import load_split as loader
 
     with _bar(console, f"crops {data.name}/{split}") as bar:
         task = bar.add_task(split, total=None)
         return loader(data, split, config, cache=cache,
-                      progress=lambda done, total: bar.update(task, completed=done, total=total))
+                      progress=lambda done, total: bar.update(task, completed=done, total=total), **options)
 
 
 def _dataset_manifest(data: Path) -> dict:
@@ -84,6 +84,10 @@ def train_attributes_command(
         "--part-shift", min=0.0, max=0.5,
         help="Move part crops' image against their mask by up to this fraction of the side (projected masks are "
              "off the part).")] = 0.12,
+    part_masks: Annotated[str, typer.Option(
+        "--part-masks", help="Cut part crops around the true visible masks ('truth') or around the parts of each "
+                             "scene re-rendered at jittered poses, as the parser projects them ('jittered').")
+                          ] = "truth",
     max_steps: Annotated[int | None, typer.Option("--max-steps", min=1, help="Stop after this many steps.")] = None,
     splits: Annotated[str, typer.Option("--splits", help="Comma-separated splits of each --data to train on.")
                       ] = "train",
@@ -108,20 +112,27 @@ def train_attributes_command(
     from po3d_ppl.perception.attributes import save_attribute_net
     from po3d_ppl.perception.train_attributes import (
         AttributeData,
+        ProjectionJitter,
         TrainConfig,
         calibrate,
         evaluate_dataset,
         train_attributes,
     )
 
+    from po3d_ppl.errors import InputError
+
     check_seed(seed)
+    if part_masks not in ("truth", "jittered"):
+        raise InputError("--part-masks", f"expected 'truth' or 'jittered', got {part_masks!r}")
+    jitter = ProjectionJitter(seed=seed) if part_masks == "jittered" else None
     torch.set_num_threads(threads)
     console = Console()
     config = TrainConfig(seed=seed, epochs=epochs, batch_size=batch_size, lr=lr, part_fraction=part_fraction,
                          part_shift=part_shift, max_steps=max_steps)
     split_list = [s.strip() for s in splits.split(",") if s.strip()]
-    train = AttributeData.concat([_load(console, d, s, config.net, cache) for d in data for s in split_list])
-    val = _load(console, data[0], val_split, config.net, cache)
+    train = AttributeData.concat([_load(console, d, s, config.net, cache, jitter=jitter)
+                                  for d in data for s in split_list])
+    val = _load(console, data[0], val_split, config.net, cache, jitter=jitter)
     console.print(f"training on {train.num_objects} objects and {train.num_parts} parts "
                   f"({float(train.part_label('recoloured').float().mean()):.3f} recoloured); "
                   f"calibrating on {val.num_objects} objects, {val.num_parts} parts", highlight=False)
@@ -153,7 +164,7 @@ def train_attributes_command(
     words = ["po3d", "train", "attributes", *[w for d in data for w in ("--data", str(d))], "--seed", str(seed),
              "--epochs", str(epochs),
              "--batch-size", str(batch_size), "--lr", str(lr), "--part-fraction", str(part_fraction),
-             "--part-shift", str(part_shift),
+             "--part-shift", str(part_shift), "--part-masks", part_masks,
              "--splits", ",".join(split_list), "--val-split", val_split, "--threads", str(threads)]
     if max_steps is not None:
         words += ["--max-steps", str(max_steps)]
@@ -164,7 +175,7 @@ def train_attributes_command(
     path = save_attribute_net(net.to("cpu"), directory, command=shlex.join(words),
                               data_commands=[_build_command(d, m) for d, m in
                                              zip([*data, eval_data], data_manifests)],
-                              data_seed=seeds[0] if len(seeds) == 1 else seeds, train_config=config.to_dict(),
+                              data_seed=seeds[0] if len(seeds) == 1 else seeds, train_config={**config.to_dict(), "part_masks": jitter.to_dict() if jitter else "truth"},
                               metrics=metrics)
     console.print(f"wrote {path} ({path.stat().st_size / 1e6:.2f} MB) after {trained.seconds:.0f} s of training "
                   f"({trained.step_seconds:.3f} s a step); temperatures {calibration['temperatures']}",
