@@ -108,6 +108,7 @@ def train_attributes_command(
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
     from po3d_ppl.cli._common import check_seed
+    from po3d_ppl.errors import InputError
     from po3d_ppl.model_store import models_dir
     from po3d_ppl.perception.attributes import save_attribute_net
     from po3d_ppl.perception.train_attributes import (
@@ -118,8 +119,6 @@ def train_attributes_command(
         evaluate_dataset,
         train_attributes,
     )
-
-    from po3d_ppl.errors import InputError
 
     check_seed(seed)
     if part_masks not in ("truth", "jittered"):
