@@ -111,7 +111,7 @@ FULL = Scale(
     background={"split": "train", "limit": 80},
     # the shipped calibration used a 60-scene build of seed 712: the first 60 images of the 120-scene one
     calibration={"limit": 60},
-    attributes={"epochs": 18, "batch_size": 32, "lr": 0.003, "part_fraction": 0.25, "splits": "train,test",
+    attributes={"epochs": 18, "batch_size": 32, "lr": 0.003, "part_fraction": 0.25, "part_shift": 0.12, "splits": "train,test",
                 "val_split": "val"},
     viewpoint={"epochs": 30, "batch_size": 32, "lr": 0.003, "splits": "train,test", "val_split": "val"},
     projection={"split": "all"},
@@ -132,7 +132,7 @@ TINY = Scale(
                 "max_steps": 200},
     background={"split": "train", "limit": 5},
     calibration={"limit": 3},
-    attributes={"epochs": 1, "batch_size": 4, "lr": 0.003, "part_fraction": 0.25, "splits": "train",
+    attributes={"epochs": 1, "batch_size": 4, "lr": 0.003, "part_fraction": 0.25, "part_shift": 0.12, "splits": "train",
                 "val_split": "val", "max_steps": 2},
     viewpoint={"epochs": 1, "batch_size": 4, "lr": 0.003, "splits": "train", "val_split": "val", "max_steps": 2},
     projection={"split": "all", "limit": 2},
