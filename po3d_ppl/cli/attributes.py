@@ -7,6 +7,7 @@ Register with ``"attributes"`` in ``po3d_ppl.cli._MODULES``.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shlex
 from pathlib import Path
@@ -174,7 +175,8 @@ def train_attributes_command(
     path = save_attribute_net(net.to("cpu"), directory, command=shlex.join(words),
                               data_commands=[_build_command(d, m) for d, m in
                                              zip([*data, eval_data], data_manifests)],
-                              data_seed=seeds[0] if len(seeds) == 1 else seeds, train_config={**config.to_dict(), "part_masks": jitter.to_dict() if jitter else "truth"},
+                              data_seed=seeds[0] if len(seeds) == 1 else seeds, train_config={**config.to_dict(),
+                                            "part_masks": dataclasses.asdict(jitter) if jitter else "truth"},
                               metrics=metrics)
     console.print(f"wrote {path} ({path.stat().st_size / 1e6:.2f} MB) after {trained.seconds:.0f} s of training "
                   f"({trained.step_seconds:.3f} s a step); temperatures {calibration['temperatures']}",

@@ -156,9 +156,6 @@ class ProjectionJitter:
     flip_rate: float = 0.05
     seed: int = 0
 
-    def to_dict(self) -> dict:
-        return asdict(self)
-
 
 def jittered_part_masks(scene, jitter: ProjectionJitter, image: int) -> list[tuple[int, str, torch.Tensor]]:
     """(object row, raw part name, mask) of every part that shows in the scene re-rendered under ``jitter``
@@ -260,7 +257,7 @@ def _cache_path(root: Path, split: str, config: AttributeConfig, min_part_pixels
     geometry = {k: v for k, v in config.to_dict().items() if not k.endswith("widths") and k != "hidden"}
     identity = [CACHE_FORMAT, digest.hexdigest(), geometry, min_part_pixels]
     if jitter is not None:  # the truth's crops keep their old key
-        identity.append(jitter.to_dict())
+        identity.append(asdict(jitter))
     key = hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()[:16]
     directory = Path(cache) if cache is not None else root.resolve().parent / "attribute_crops"
     return directory / f"{root.resolve().name}-{split}-{key}.safetensors"
@@ -301,7 +298,7 @@ def load_split(data: Path | str, split: str, config: AttributeConfig | None = No
         save_file({f.name: getattr(out, f.name).contiguous() for f in fields(AttributeData)}, str(tmp),
                   metadata={"data": str(root.resolve()), "split": split, "config": json.dumps(config.to_dict()),
                             "min_part_pixels": str(min_part_pixels),
-                            "jitter": json.dumps(jitter.to_dict() if jitter is not None else None)})
+                            "jitter": json.dumps(asdict(jitter) if jitter is not None else None)})
         tmp.replace(path)
     return out
 
