@@ -89,10 +89,9 @@ class Occlusion:
         """Apply the rules: the public level, and occluders = objects hiding >= MIN_OCCLUDER_PIXELS pixels."""
         level = occlusion_level(unoccluded_pixels, hidden_pixels)
         visible_before = unoccluded_pixels >= MIN_VISIBLE_BEFORE_PIXELS
-        by: tuple[int, ...] = ()
-        if level in (1, 2) and visible_before:
-            ranked = sorted(overlaps.items(), key=lambda kv: (-kv[1], kv[0]))
-            by = tuple(j for j, px in ranked if px >= MIN_OCCLUDER_PIXELS)
+        ranked = sorted(overlaps.items(), key=lambda kv: (-kv[1], kv[0]))
+        keep = occluder_mask(unoccluded_pixels, hidden_pixels, [px for _, px in ranked]) if ranked else ()
+        by = tuple(int(j) for (j, _), kept in zip(ranked, keep) if kept)
         return cls(level, visible_before, by, {int(j): int(px) for j, px in sorted(overlaps.items()) if px > 0})
 
 
