@@ -90,3 +90,33 @@ def test_fit_recovers_overconfidence_and_the_calibrated_variant_is_better_on_new
     assert calibrated.accuracy == raw.accuracy  # monotone: the top answer never changes
     assert calibrated.ece < 0.05 < raw.ece
     assert variants_of(("ours", "soft"), calibrated=True) == ("ours", CALIBRATED, "ours_joint", "soft")
+
+
+def test_brier_grid_is_the_brier_score_of_the_recalibrated_distribution():
+    import torch
+
+    from po3d_ppl.evaluation.answer_calibration import SMOOTHINGS, TEMPERATURES, _tables, brier_grid
+
+    records = _overconfident_records(30, 2)
+    logp, sizes, truths = _tables(records, "ours")
+    grid = brier_grid(logp, sizes, truths)
+    t, s = 7, 5
+    calibration = AnswerCalibration({kind: TypeCalibration(float(TEMPERATURES[t]), float(SMOOTHINGS[s]))
+                                     for kind in ("Bool", "Color")})
+    direct = []
+    for record in records:
+        dist = calibration.apply(_dist(dict(record.predictions["ours"].probs), record.answer_type))
+        support = answer_support(record.answer_type, list(dist.probs))
+        direct.append(sum((dist.probs.get(a, 0.0) - (a == record.item.truth)) ** 2 for a in support))
+    assert float(grid[t, s]) == pytest.approx(sum(direct) / len(direct), rel=1e-6)
+    assert torch.isfinite(grid).all()
+
+
+def test_fit_by_brier_also_calibrates_and_an_unknown_objective_is_a_typed_error():
+    calibration, _ = fit(_overconfident_records(400, 0), objective="brier")
+    held_out = _overconfident_records(400, 1)
+    for record in held_out:
+        record.predictions[CALIBRATED] = recalibrated(record, calibration)
+    assert calibration_report(held_out, CALIBRATED).ece < 0.05 < calibration_report(held_out, "ours").ece
+    with pytest.raises(InputError, match="objective"):
+        fit(held_out, objective="log")

@@ -165,6 +165,9 @@ def test_full_scale_repeats_the_shipped_commands(tmp_path):
         # as many training datasets
         datasets = [w for k, w in itertools.pairwise(words) if k == "--data"]
         assert len(datasets) == len([w for k, w in itertools.pairwise(ours[label]) if k == "--data"]), label
+    # the answer calibration reads as many validation seeds as the shipped fit (its --cache is not an option)
+    answer_words = shlex.split(shipped["answer_calibration"]["command"])
+    assert sum(w == "--data" for w in answer_words) == sum(w == "--data" for w in ours["answer calibration"])
     built = {(d.seed, d.scenes) for d in FULL.datasets}
     recorded_builds = set()
     for entry in shipped.values():

@@ -212,6 +212,8 @@ def train_answer_calibration_command(
                                                  "entry into (default: the shipped models/)."),
     model_dir: Path = typer.Option(None, "--model-dir", help="The perception models and priors whose answers to "
                                                              "calibrate (default: the shipped models/)."),
+    objective: str = typer.Option("nll", "--objective", help="Proper scoring rule the fit minimises per answer "
+                                                             "type: nll, or brier (the full distribution's)."),
 ) -> None:
     """Fit the answer calibration (a temperature and a smoothing per answer type) on a VALIDATION dataset's
     questions answered by ours from the image, and ship it: the pipeline applies it to every answer from an image.
@@ -220,24 +222,29 @@ def train_answer_calibration_command(
 
     from rich.console import Console
 
-    from po3d_ppl.evaluation.answer_calibration import fit
+    from po3d_ppl.cli.attributes import _build_command
+    from po3d_ppl.errors import InputError
+    from po3d_ppl.evaluation.answer_calibration import OBJECTIVES, fit
     from po3d_ppl.evaluation.calibration import calibration_report
     from po3d_ppl.evaluation.runner import CALIBRATED, recalibrated
     from po3d_ppl.model_store import models_dir, write_entry
     from po3d_ppl.reasoning.answer_calibration import MODEL_NAME
 
+    if objective not in OBJECTIVES:
+        raise InputError("--objective", f"unknown {objective!r}; choose from {', '.join(OBJECTIVES)}")
     console = Console()
     backend = make_backend(perception, noise, seed, model_dir)  # one model load for every dataset
-    records, images, seeds, configs = [], 0, [], []
+    records, images, seeds, configs, manifests = [], 0, [], [], []
     for dataset_dir in data:
         dataset, run, _ = _run(dataset_dir, split, "ours", noise, seed, limit, cache, False, device, threads, console,
                                f"answer calibration ({dataset_dir.name})", perception, priors=priors,
                                model_dir=model_dir, recalibrate=False, backend=backend)
         records += run.records
         images += run.images
+        manifests.append(dataset.manifest)
         seeds.append(dataset.manifest.get("seed"))
         configs.append(dataset.manifest.get("config"))
-    calibration, per_type = fit(records)
+    calibration, per_type = fit(records, objective=objective)
     for record in records:
         record.predictions[CALIBRATED] = recalibrated(record, calibration)
     before, after = calibration_report(records, "ours"), calibration_report(records, CALIBRATED)
@@ -246,7 +253,7 @@ def train_answer_calibration_command(
     words = ["po3d", "train", "answer-calibration"]
     for dataset_dir in data:
         words += ["--data", str(dataset_dir)]
-    words += ["--split", split, "--perception", perception, "--priors", priors]
+    words += ["--split", split, "--perception", perception, "--priors", priors, "--objective", objective]
     words += ["--limit", str(limit)] if limit else []
     words += ["--noise", str(noise), "--seed", str(seed)] if perception == "simulated" else []
     words += ["--out", str(out)] if out is not None else []
@@ -256,6 +263,7 @@ def train_answer_calibration_command(
                "fit_split": {"before": {k: before.row()[k] for k in ("accuracy", "mean_confidence", "ece", "nll")},
                              "after": {k: after.row()[k] for k in ("accuracy", "mean_confidence", "ece", "nll")}}}
     write_entry(MODEL_NAME, [calibration.save(directory)], directory, command=shlex.join(words),
+                data_commands=[_build_command(d, m) for d, m in zip(data, manifests)],
                 data_seed=seeds, data_config=configs, metrics=metrics)
     console.print_json(json.dumps({"calibration": calibration.to_dict(), **metrics}))
     fitted_on = ", ".join(map(str, data))

@@ -13,6 +13,7 @@ from collections.abc import Sequence
 
 import torch
 
+from po3d_ppl.errors import InputError
 from po3d_ppl.evaluation.calibration import NLL_FLOOR
 from po3d_ppl.evaluation.runner import QuestionRecord, _same
 from po3d_ppl.reasoning.answer_calibration import AnswerCalibration, TypeCalibration, answer_support
@@ -51,9 +52,33 @@ def nll_grid(logp: torch.Tensor, sizes: torch.Tensor, truths: torch.Tensor) -> t
     return out
 
 
-def fit(records: Sequence[QuestionRecord], variant: str = "ours", min_questions: int = 50
+def brier_grid(logp: torch.Tensor, sizes: torch.Tensor, truths: torch.Tensor) -> torch.Tensor:
+    """Mean Brier score of the full distribution over each question's support for every (temperature, smoothing)
+    of the grid: [T, S]. ``sum_k (p_k - y_k)^2 = sum_k p_k^2 - 2 p_true + 1``, and with ``p = (1 - s) q + s / n``
+    over the ``n`` answers of the support, ``sum_k p_k^2 = (1 - s)^2 sum_k q_k^2 + (2 (1 - s) s + s^2) / n``."""
+    inside = truths >= 0
+    column = truths.clamp(min=0)
+    s = SMOOTHINGS[None, :]
+    out = torch.empty(len(TEMPERATURES), len(SMOOTHINGS), dtype=torch.float64)
+    for i, t in enumerate(TEMPERATURES):
+        q = torch.softmax(logp / t, dim=1)
+        squares = (q * q).sum(1)[:, None]
+        true = torch.where(inside, q.gather(1, column[:, None])[:, 0], torch.zeros_like(squares[:, 0]))[:, None]
+        p_true = torch.where(inside[:, None], (1.0 - s) * true + s / sizes[:, None], torch.zeros_like(true * s))
+        out[i] = ((1.0 - s) ** 2 * squares + (2.0 * (1.0 - s) * s + s * s) / sizes[:, None] - 2.0 * p_true + 1.0).mean(0)
+    return out
+
+
+#: The proper scoring rules a calibration can be fitted by (each a function of the grid: [T, S]).
+OBJECTIVES = {"nll": nll_grid, "brier": brier_grid}
+
+
+def fit(records: Sequence[QuestionRecord], variant: str = "ours", min_questions: int = 50, objective: str = "nll"
         ) -> tuple[AnswerCalibration, dict[str, dict]]:
-    """(the calibration, per answer type: questions, fitted parameters and NLL before and after) from one run."""
+    """(the calibration, per answer type: questions, fitted parameters and NLL before and after) from one run;
+    ``objective`` names the proper scoring rule minimised (:data:`OBJECTIVES`)."""
+    if objective not in OBJECTIVES:
+        raise InputError("objective", f"unknown {objective!r}; choose from {', '.join(OBJECTIVES)}")
     by_type: dict[str, list[QuestionRecord]] = {}
     for r in records:
         if r.predictions[variant].probs:  # nothing to recalibrate when the presuppositions surely fail
@@ -63,8 +88,9 @@ def fit(records: Sequence[QuestionRecord], variant: str = "ours", min_questions:
         if len(members) < min_questions:
             report[answer_type] = {"questions": len(members), "fitted": None}
             continue
-        grid = nll_grid(*_tables(members, variant))
-        best = int(torch.argmin(grid))
+        tables = _tables(members, variant)
+        grid = nll_grid(*tables)
+        best = int(torch.argmin(OBJECTIVES[objective](*tables)))
         t, s = divmod(best, len(SMOOTHINGS))
         fitted = TypeCalibration(round(float(TEMPERATURES[t]), 4), float(SMOOTHINGS[s]))
         types[answer_type] = fitted
