@@ -3,7 +3,9 @@
 Per answer type, the (temperature, smoothing) pair minimising the NLL of the true answers, by a grid search (one
 type has a few hundred questions and the NLL is smooth in both; a grid is deterministic and has no learning rate).
 A true answer outside the type's support is counted at the NLL floor of :mod:`po3d_ppl.evaluation.calibration`.
-Types with fewer than ``min_questions`` questions are left uncalibrated.
+Types with fewer than ``min_questions`` questions are left uncalibrated. ``objective="brier"`` minimises the
+full distribution's Brier score instead, which a truth with no mass costs at most 2 rather than the floor's NLL
+(a leave-one-seed-out comparison: ``benchmarks/answer_calibration_crossfit.py``).
 """
 
 from __future__ import annotations
@@ -56,16 +58,15 @@ def brier_grid(logp: torch.Tensor, sizes: torch.Tensor, truths: torch.Tensor) ->
     """Mean Brier score of the full distribution over each question's support for every (temperature, smoothing)
     of the grid: [T, S]. ``sum_k (p_k - y_k)^2 = sum_k p_k^2 - 2 p_true + 1``, and with ``p = (1 - s) q + s / n``
     over the ``n`` answers of the support, ``sum_k p_k^2 = (1 - s)^2 sum_k q_k^2 + (2 (1 - s) s + s^2) / n``."""
-    inside = truths >= 0
-    column = truths.clamp(min=0)
-    s = SMOOTHINGS[None, :]
+    inside = (truths >= 0).double()[:, None]  # a truth outside the support has p_true = 0
+    column = truths.clamp(min=0)[:, None]
+    s, n = SMOOTHINGS[None, :], sizes[:, None]
     out = torch.empty(len(TEMPERATURES), len(SMOOTHINGS), dtype=torch.float64)
     for i, t in enumerate(TEMPERATURES):
         q = torch.softmax(logp / t, dim=1)
-        squares = (q * q).sum(1)[:, None]
-        true = torch.where(inside, q.gather(1, column[:, None])[:, 0], torch.zeros_like(squares[:, 0]))[:, None]
-        p_true = torch.where(inside[:, None], (1.0 - s) * true + s / sizes[:, None], torch.zeros_like(true * s))
-        out[i] = ((1.0 - s) ** 2 * squares + (2.0 * (1.0 - s) * s + s * s) / sizes[:, None] - 2.0 * p_true + 1.0).mean(0)
+        squares = (q * q).sum(1, keepdim=True)
+        p_true = ((1.0 - s) * q.gather(1, column) + s / n) * inside
+        out[i] = ((1.0 - s) ** 2 * squares + (2.0 * (1.0 - s) * s + s * s) / n - 2.0 * p_true + 1.0).mean(0)
     return out
 
 
