@@ -68,3 +68,18 @@ def read_text_file(path: Path, option: str) -> str:
                                  f"{exc.start}); save it as UTF-8") from None
     except OSError as exc:
         raise InputError(option, f"cannot read {path}: {exc.strerror or exc}") from None
+
+
+def dataset_manifest(data: Path) -> dict:
+    """The ``manifest.json`` of a dataset directory (empty when it has none)."""
+    path = Path(data) / "manifest.json"
+    return json.loads(path.read_text()) if path.exists() else {}
+
+
+def build_command(data: Path, manifest: dict) -> str:
+    """The ``po3d dataset build`` command that makes ``data`` (for a model's ``data_commands``)."""
+    import shlex
+
+    config = manifest.get("config", {})
+    return shlex.join(["po3d", "dataset", "build", "--out", str(data), "--scenes", str(config.get("scenes")),
+                       "--seed", str(manifest.get("seed"))])

@@ -15,6 +15,8 @@ from typing import Annotated
 
 import typer
 
+from po3d_ppl.cli._common import build_command, dataset_manifest
+
 
 def _bar(console, what: str):
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
@@ -33,17 +35,6 @@ def _load(console, data: Path, split: str, config, cache: Path | None, loader=No
         task = bar.add_task(split, total=None)
         return loader(data, split, config, cache=cache,
                       progress=lambda done, total: bar.update(task, completed=done, total=total), **options)
-
-
-def _dataset_manifest(data: Path) -> dict:
-    path = Path(data) / "manifest.json"
-    return json.loads(path.read_text()) if path.exists() else {}
-
-
-def _build_command(data: Path, manifest: dict) -> str:
-    config = manifest.get("config", {})
-    return shlex.join(["po3d", "dataset", "build", "--out", str(data), "--scenes", str(config.get("scenes")),
-                       "--seed", str(manifest.get("seed"))])
 
 
 def _print_report(console, report: dict, title: str) -> None:
@@ -150,10 +141,10 @@ def train_attributes_command(
                      "train_seconds": round(trained.seconds, 1), "step_seconds": round(trained.step_seconds, 4),
                      "steps": trained.steps, "threads": threads, "device": device,
                      "parameters": net.num_parameters(), "history": trained.history, "calibration": calibration}
-    data_manifests = [_dataset_manifest(d) for d in data]
+    data_manifests = [dataset_manifest(d) for d in data]
     seeds = [m.get("seed") for m in data_manifests]
     if eval_data is not None:
-        held = _dataset_manifest(eval_data)
+        held = dataset_manifest(eval_data)
         with _bar(console, f"measure {eval_data.name}") as bar:
             task = bar.add_task("eval", total=None)
             report = evaluate_dataset(net, eval_data, progress=lambda d, t: bar.update(task, completed=d, total=t))
@@ -173,7 +164,7 @@ def train_attributes_command(
     if out is not None:
         words += ["--out", str(out)]
     path = save_attribute_net(net.to("cpu"), directory, command=shlex.join(words),
-                              data_commands=[_build_command(d, m) for d, m in
+                              data_commands=[build_command(d, m) for d, m in
                                              zip([*data, eval_data], data_manifests)],
                               data_seed=seeds[0] if len(seeds) == 1 else seeds, train_config={**config.to_dict(),
                                             "part_masks": dataclasses.asdict(jitter) if jitter else "truth"},
@@ -209,7 +200,7 @@ def eval_attributes_command(
         task = bar.add_task("eval", total=None)
         report = evaluate_dataset(net, data, split_list, limit,
                                   progress=lambda d, t: bar.update(task, completed=d, total=t))
-    manifest = _dataset_manifest(data)
+    manifest = dataset_manifest(data)
     words = ["po3d", "eval", "attributes", "--data", str(data), "--splits", ",".join(split_list)]
     if limit is not None:
         words += ["--limit", str(limit)]

@@ -222,19 +222,17 @@ def train_answer_calibration_command(
 
     from rich.console import Console
 
-    from po3d_ppl.cli.attributes import _build_command
-    from po3d_ppl.errors import InputError
-    from po3d_ppl.evaluation.answer_calibration import OBJECTIVES, fit
+    from po3d_ppl.cli._common import build_command
+    from po3d_ppl.evaluation.answer_calibration import check_objective, fit
     from po3d_ppl.evaluation.calibration import calibration_report
     from po3d_ppl.evaluation.runner import CALIBRATED, recalibrated
     from po3d_ppl.model_store import models_dir, write_entry
     from po3d_ppl.reasoning.answer_calibration import MODEL_NAME
 
-    if objective not in OBJECTIVES:
-        raise InputError("--objective", f"unknown {objective!r}; choose from {', '.join(OBJECTIVES)}")
+    check_objective(objective, "--objective")  # before the hours of answering, not after
     console = Console()
     backend = make_backend(perception, noise, seed, model_dir)  # one model load for every dataset
-    records, images, seeds, configs, manifests = [], 0, [], [], []
+    records, images, manifests = [], 0, []
     for dataset_dir in data:
         dataset, run, _ = _run(dataset_dir, split, "ours", noise, seed, limit, cache, False, device, threads, console,
                                f"answer calibration ({dataset_dir.name})", perception, priors=priors,
@@ -242,8 +240,6 @@ def train_answer_calibration_command(
         records += run.records
         images += run.images
         manifests.append(dataset.manifest)
-        seeds.append(dataset.manifest.get("seed"))
-        configs.append(dataset.manifest.get("config"))
     calibration, per_type = fit(records, objective=objective)
     for record in records:
         record.predictions[CALIBRATED] = recalibrated(record, calibration)
@@ -263,8 +259,9 @@ def train_answer_calibration_command(
                "fit_split": {"before": {k: before.row()[k] for k in ("accuracy", "mean_confidence", "ece", "nll")},
                              "after": {k: after.row()[k] for k in ("accuracy", "mean_confidence", "ece", "nll")}}}
     write_entry(MODEL_NAME, [calibration.save(directory)], directory, command=shlex.join(words),
-                data_commands=[_build_command(d, m) for d, m in zip(data, manifests)],
-                data_seed=seeds, data_config=configs, metrics=metrics)
+                data_commands=[build_command(d, m) for d, m in zip(data, manifests)],
+                data_seed=[m.get("seed") for m in manifests], data_config=[m.get("config") for m in manifests],
+                metrics=metrics)
     console.print_json(json.dumps({"calibration": calibration.to_dict(), **metrics}))
     fitted_on = ", ".join(map(str, data))
     console.print(f"answer calibration -> {directory / 'answer_calibration.json'} (fitted on {fitted_on}; report "

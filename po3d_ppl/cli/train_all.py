@@ -141,7 +141,7 @@ TINY = Scale(
     projection={"split": "all", "limit": 2},
     answer_calibration={"split": "all", "limit": 1},
     train_sets={"perception": ("train_s711",), "background": ("train_s711",), "priors": ("train_s711",),
-                "attributes": ("train_s711",), "viewpoint": ("train_s711",)},
+                "attributes": ("train_s711",), "viewpoint": ("train_s711",), "answer_calibration": ("val_s712",)},
     evaluate=False,
 )
 SCALES = {"full": FULL, "tiny": TINY}
@@ -247,8 +247,7 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
                         out=out)],
         "answer_calibration": [step("answer calibration", train_answer_calibration_command,
                                     ["po3d", "train", "answer-calibration"],
-                                    data=sets("answer_calibration") if "answer_calibration" in scale.train_sets
-                                    else [val], **scale.answer_calibration,
+                                    data=sets("answer_calibration"), **scale.answer_calibration,
                                     threads=threads, out=out, model_dir=out)],
     }
     return steps

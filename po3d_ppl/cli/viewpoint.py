@@ -13,7 +13,7 @@ from typing import Annotated
 
 import typer
 
-from po3d_ppl.cli.attributes import _build_command, _dataset_manifest
+from po3d_ppl.cli._common import build_command, dataset_manifest
 from po3d_ppl.cli.attributes import _load as _load_crops
 
 
@@ -100,11 +100,11 @@ def train_viewpoint_command(
                      "step_seconds": round(trained.step_seconds, 4), "steps": trained.steps, "threads": threads,
                      "device": device, "parameters": net.num_parameters(), "history": trained.history,
                      "calibration": calibration}
-    manifests = [_dataset_manifest(d) for d in data]
+    manifests = [dataset_manifest(d) for d in data]
     seeds = [m.get("seed") for m in manifests]
     if eval_data is not None:
         held = ViewpointData.concat([_load(console, eval_data, s, config.net, cache) for s in ("train", "val", "test")])
-        held_manifest = _dataset_manifest(eval_data)
+        held_manifest = dataset_manifest(eval_data)
         report = measure(net, held)
         metrics[f"eval_seed{held_manifest.get('seed')}"] = {**report, "data": str(eval_data),
                                                             "masks": "ground-truth visible masks"}
@@ -121,7 +121,7 @@ def train_viewpoint_command(
         words += ["--out", str(out)]
     path = save_viewpoint_net(net.to("cpu"), Path(out) if out is not None else models_dir(),
                               command=shlex.join(words),
-                              data_commands=[_build_command(d, m) for d, m in
+                              data_commands=[build_command(d, m) for d, m in
                                              zip([*data, *([eval_data] if eval_data else [])], manifests)],
                               data_seed=seeds[0] if len(seeds) == 1 else seeds, train_config=config.to_dict(),
                               metrics=metrics)

@@ -74,12 +74,18 @@ def brier_grid(logp: torch.Tensor, sizes: torch.Tensor, truths: torch.Tensor) ->
 OBJECTIVES = {"nll": nll_grid, "brier": brier_grid}
 
 
+def check_objective(objective: str, option: str = "objective") -> str:
+    """``objective`` if it names one of :data:`OBJECTIVES`, else a typed error listing them."""
+    if objective not in OBJECTIVES:
+        raise InputError(option, f"unknown {objective!r}; choose from {', '.join(OBJECTIVES)}")
+    return objective
+
+
 def fit(records: Sequence[QuestionRecord], variant: str = "ours", min_questions: int = 50, objective: str = "nll"
         ) -> tuple[AnswerCalibration, dict[str, dict]]:
     """(the calibration, per answer type: questions, fitted parameters and NLL before and after) from one run;
     ``objective`` names the proper scoring rule minimised (:data:`OBJECTIVES`)."""
-    if objective not in OBJECTIVES:
-        raise InputError("objective", f"unknown {objective!r}; choose from {', '.join(OBJECTIVES)}")
+    check_objective(objective)
     by_type: dict[str, list[QuestionRecord]] = {}
     for r in records:
         if r.predictions[variant].probs:  # nothing to recalibrate when the presuppositions surely fail
@@ -90,8 +96,8 @@ def fit(records: Sequence[QuestionRecord], variant: str = "ours", min_questions:
             report[answer_type] = {"questions": len(members), "fitted": None}
             continue
         tables = _tables(members, variant)
-        grid = nll_grid(*tables)
-        best = int(torch.argmin(OBJECTIVES[objective](*tables)))
+        grid = nll_grid(*tables)  # reported whatever the objective
+        best = int(torch.argmin(grid if objective == "nll" else OBJECTIVES[objective](*tables)))
         t, s = divmod(best, len(SMOOTHINGS))
         fitted = TypeCalibration(round(float(TEMPERATURES[t]), 4), float(SMOOTHINGS[s]))
         types[answer_type] = fitted
