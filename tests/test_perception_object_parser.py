@@ -101,3 +101,23 @@ def test_crowded_scene_proposals_do_not_overlap():
         for j in range(i):
             assert not footprints_overlap(poses[i], poses[j], ParserConfig().footprint_shrink), (i, j)
     assert int(record.masks.sum(0).max()) <= 1
+
+
+def test_a_mesh_hides_only_its_solid_cells():
+    """Where the nearer proposal's own evidence is below ``solid_threshold`` (its category mesh overshooting), the
+    farther proposal it overlaps in the image keeps the pixels; with -inf the nearer mesh owns all it covers."""
+    from po3d_ppl.perception.image_input import CameraPrior
+    from po3d_ppl.perception.object_parser import _ownership
+
+    camera = CameraPrior(320, 240).base
+    car = CATEGORIES.index("car")
+    near = Hypothesis(0, car, 0, 0, 0.0, -1.0, 0.0, 9.0, 0.0)
+    far = Hypothesis(0, car, 0, 0, 0.0, 1.5, 0.0, 11.0, 0.0)
+    cells = (240 // 8, 320 // 8)
+    fg = torch.stack([torch.full(cells, -5.0), torch.full(cells, 5.0)])  # the near one explains nothing
+    hard = _ownership([near, far], camera, ParserConfig(solid_threshold=-float("inf"), mask_stride=2), (320, 240), fg)
+    solid = _ownership([near, far], camera, ParserConfig(solid_threshold=0.0, mask_stride=2), (320, 240), fg)
+    both = (hard == 0) & (solid == 1)  # pixels the near mesh covered in front of the far one
+    assert int(both.sum()) > 100
+    assert int((solid == 0).sum()) < int((hard == 0).sum())
+    assert int(((hard == 1) & (solid != 1)).sum()) == 0  # the far one loses nothing
