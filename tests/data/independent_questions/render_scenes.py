@@ -1,6 +1,8 @@
 """Render the scenes of the independent question set (run once; the set's questions are grounded in them).
 
     python tests/data/independent_questions/render_scenes.py
+    python tests/data/independent_questions/render_scenes.py --first-seed 7100 \
+        --out tests/data/independent_questions_v2/scenes          # the second set's scenes
 
 Scenes come straight from the world (``po3d_ppl.world.generate_scene``), seeds 7000.. with 5-10 objects at
 640x480. To keep the directory small the stored files drop the RLE masks (``obj_mask_box`` masks, the public
@@ -19,7 +21,7 @@ from po3d_ppl.questions.context import SceneContext
 from po3d_ppl.world import SceneConfig, generate_scene, load_scene, save_scene
 
 HERE = Path(__file__).resolve().parent
-SEEDS = range(7000, 7064)
+FIRST_SEED, SCENES = 7000, 64
 
 
 def strip(data: dict) -> dict:
@@ -46,10 +48,16 @@ def facts(ctx: SceneContext):
 
 
 def main() -> None:
-    out = HERE / "scenes"
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--first-seed", type=int, default=FIRST_SEED)
+    ap.add_argument("--out", type=Path, default=HERE / "scenes")
+    args = ap.parse_args()
+    out = args.out
     out.mkdir(exist_ok=True)
     tmp = Path("/tmp/indep_full.json")
-    for k, seed in enumerate(SEEDS):
+    for k, seed in enumerate(range(args.first_seed, args.first_seed + SCENES)):
         n = 5 + k % 6
         r = generate_scene(seed, SceneConfig.with_objects(n, shadows=False))
         save_scene(r.scene, tmp)
