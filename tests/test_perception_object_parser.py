@@ -121,3 +121,23 @@ def test_a_mesh_hides_only_its_solid_cells():
     assert int(both.sum()) > 100
     assert int((solid == 0).sum()) < int((hard == 0).sum())
     assert int(((hard == 1) & (solid != 1)).sum()) == 0  # the far one loses nothing
+
+
+def test_slivers_of_a_neighbour_are_dropped(monkeypatch):
+    """A proposal whose final mask holds under ``min_visible_fraction`` of its own silhouette is dropped; one
+    that keeps its silhouette stays."""
+    from po3d_ppl.perception import object_parser
+    from po3d_ppl.perception.image_input import CameraPrior
+
+    camera = CameraPrior(320, 240).base
+    car = CATEGORIES.index("car")
+    whole = Hypothesis(0, car, 0, 0, 0.0, 0.0, 0.0, 10.0, 0.0)
+    sliver = Hypothesis(0, car, 0, 0, 1.6, 0.0, 0.0, 10.0, 0.0)
+    config = ParserConfig(mask_stride=2)
+    alone = object_parser._ownership([whole], camera, config, (320, 240))
+    ownership = alone.clone()
+    ownership[0, :10] = 1  # ten pixels for the second proposal, far less than 5% of its silhouette
+    monkeypatch.setattr(object_parser, "_final_ownership", lambda *args: ownership)
+    assert object_parser._not_fragments([whole, sliver], camera, config, None, None, None) == [0]
+    keep_all = ParserConfig(mask_stride=2, min_visible_fraction=0.0)
+    assert object_parser._not_fragments([whole, sliver], camera, keep_all, None, None, None) == [0, 1]
