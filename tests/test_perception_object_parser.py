@@ -115,15 +115,16 @@ def test_a_mesh_hides_only_its_solid_cells():
     far = Hypothesis(0, car, 0, 0, 0.0, 1.5, 0.0, 11.0, 0.0)
     cells = (240 // 8, 320 // 8)
     fg = torch.stack([torch.full(cells, -5.0), torch.full(cells, 5.0)])  # the near one explains nothing
-    hard = _ownership([near, far], camera, ParserConfig(solid_threshold=-float("inf"), mask_stride=2), (320, 240), fg)
-    solid = _ownership([near, far], camera, ParserConfig(solid_threshold=0.0, mask_stride=2), (320, 240), fg)
+    hard, _ = _ownership([near, far], camera, ParserConfig(solid_threshold=-float("inf"), mask_stride=2), (320, 240),
+                         fg)
+    solid, _ = _ownership([near, far], camera, ParserConfig(solid_threshold=0.0, mask_stride=2), (320, 240), fg)
     both = (hard == 0) & (solid == 1)  # pixels the near mesh covered in front of the far one
     assert int(both.sum()) > 100
     assert int((solid == 0).sum()) < int((hard == 0).sum())
     assert int(((hard == 1) & (solid != 1)).sum()) == 0  # the far one loses nothing
 
 
-def test_slivers_of_a_neighbour_are_dropped(monkeypatch):
+def test_slivers_of_a_neighbour_are_dropped():
     """A proposal whose final mask holds under ``min_visible_fraction`` of its own silhouette is dropped; one
     that keeps its silhouette stays."""
     from po3d_ppl.perception import object_parser
@@ -134,10 +135,10 @@ def test_slivers_of_a_neighbour_are_dropped(monkeypatch):
     whole = Hypothesis(0, car, 0, 0, 0.0, 0.0, 0.0, 10.0, 0.0)
     sliver = Hypothesis(0, car, 0, 0, 1.6, 0.0, 0.0, 10.0, 0.0)
     config = ParserConfig(mask_stride=2)
-    alone = object_parser._ownership([whole], camera, config, (320, 240))
+    alone, _ = object_parser._ownership([whole], camera, config, (320, 240))
+    _, silhouette = object_parser._ownership([whole, sliver], camera, config, (320, 240))
     ownership = alone.clone()
     ownership[0, :10] = 1  # ten pixels for the second proposal, far less than 5% of its silhouette
-    monkeypatch.setattr(object_parser, "_final_ownership", lambda *args: ownership)
-    assert object_parser._not_fragments([whole, sliver], camera, config, None, None, None) == [0]
+    assert object_parser._not_fragments(ownership, silhouette, config.min_visible_fraction) == [0]
     keep_all = ParserConfig(mask_stride=2, min_visible_fraction=0.0)
-    assert object_parser._not_fragments([whole, sliver], camera, keep_all, None, None, None) == [0, 1]
+    assert object_parser._not_fragments(ownership, silhouette, keep_all.min_visible_fraction) == [0, 1]

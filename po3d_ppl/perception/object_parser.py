@@ -21,8 +21,8 @@
    it would be in front (an occluded object on its visible cells; an accepted mesh hides only its *solid* cells,
    where its own score beats clutter, since the category mesh overshoots its subtype), and it is accepted when it
    raises the image's log-likelihood by ``existence_threshold`` and is in front on ``min_new_fraction`` of its
-   footprint; footprints
-   on the ground may not intersect (objects do not interpenetrate), so one object is not proposed twice.
+   footprint; footprints on the ground may not intersect (objects do not interpenetrate), so one object is not
+   proposed twice.
    Accepting nearest first (what the issue sketched) was measured first: it took small hypotheses in front of
    large near objects (precision 0.55 on 3 images of seed 712), which the gain against the current owner rejects.
 4. *Local re-search and refinement*: around each accepted proposal every hypothesis is re-scored on a finer grid
@@ -737,52 +737,32 @@ def _tables(scores: torch.Tensor, grid: Grid, hyp: Hypothesis, config: ParserCon
 
 
 def _ownership(hyps: list[Hypothesis], camera: Camera, config: ParserConfig, size: tuple[int, int],
-               fg: torch.Tensor | None = None) -> torch.Tensor:
-    """[H, W] index of the accepted proposal whose mesh is nearest at each pixel (-1: none), from one z-buffer.
+               fg: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+    """([H, W] index of the proposal owning each pixel, -1: none; [N] pixels of each proposal's silhouette).
 
-    With ``fg`` (each proposal's stride-8 cell scores) and a finite ``solid_threshold``, a mesh hides what lies
-    behind it only where its evidence exceeds the threshold, as in the 3D-NMS (:func:`_solid_ownership`)."""
+    Each proposal is rendered alone at ``mask_stride`` (one batched call). A pixel goes to the nearest proposal
+    whose cell score there (``fg``, stride 8, bilinear) exceeds ``solid_threshold``, as in the 3D-NMS: a category
+    mesh overshoots its subtype, so it hides what lies behind it only where its evidence says it is there. Other
+    covered pixels go to the nearest mesh (all of them without ``fg``: a plain z-buffer)."""
     from po3d_ppl.perception.rasterizer import rasterize_camera
 
     width, height = size
     if not hyps:
-        return torch.full((height, width), -1, dtype=torch.long)
-    if fg is not None and math.isfinite(config.solid_threshold):
-        return _solid_ownership(hyps, camera, config, size, fg)
-    verts, faces, counts = _posed_meshes(hyps)
-    nfaces = [int((faces[i, :, 0] >= 0).sum()) for i in range(len(hyps))]
-    offsets = np.cumsum([0, *counts[:-1]])
-    all_v = torch.cat([verts[i, : counts[i]] for i in range(len(hyps))])[None]
-    all_f = torch.cat([faces[i, : nfaces[i]] + int(offsets[i]) for i in range(len(hyps))])
-    owner = torch.cat([torch.full((nfaces[i],), i) for i in range(len(hyps))])
-    frags = rasterize_camera(all_v, all_f, camera, stride=config.mask_stride, cull_backfaces=True)
-    fmap = frags.face_map[0]
-    small = torch.where(fmap >= 0, owner[fmap.clamp_min(0)], -1)
-    full = small.repeat_interleave(config.mask_stride, 0).repeat_interleave(config.mask_stride, 1)
-    return full[:height, :width]
-
-
-def _solid_ownership(hyps: list[Hypothesis], camera: Camera, config: ParserConfig, size: tuple[int, int],
-                     fg: torch.Tensor) -> torch.Tensor:
-    """Each proposal rendered alone at ``mask_stride``; a pixel goes to the nearest proposal whose cell score
-    (bilinear) there exceeds ``solid_threshold``, else to the nearest mesh covering it."""
-    from po3d_ppl.perception.rasterizer import rasterize_camera
-
-    width, height = size
+        return torch.full((height, width), -1, dtype=torch.long), torch.zeros(0, dtype=torch.long)
     verts, faces, _ = _posed_meshes(hyps)
     frags = rasterize_camera(verts, faces, camera, stride=config.mask_stride, cull_backfaces=True)
     depth = torch.where(frags.mask, frags.depth_map.detach(), torch.full_like(frags.depth_map, float("inf")))
-    scale = STRIDE / config.mask_stride
-    up = F.interpolate(fg[:, None].float(), scale_factor=scale, mode="bilinear", align_corners=False)[:, 0]
-    up = up[:, : depth.shape[1], : depth.shape[2]]
-    up = F.pad(up, (0, depth.shape[2] - up.shape[2], 0, depth.shape[1] - up.shape[1]), value=-float("inf"))
-    solid = torch.where(up > config.solid_threshold, depth, torch.full_like(depth, float("inf")))
-    nearest_solid, solid_owner = solid.min(0)
     nearest_mesh, mesh_owner = depth.min(0)
-    small = torch.where(torch.isfinite(nearest_solid), solid_owner,
-                        torch.where(torch.isfinite(nearest_mesh), mesh_owner, -1))
+    small = torch.where(torch.isfinite(nearest_mesh), mesh_owner, -1)
+    if fg is not None:
+        up = F.interpolate(fg[:, None].float(), scale_factor=STRIDE / config.mask_stride, mode="bilinear",
+                           align_corners=False)[:, 0, : depth.shape[1], : depth.shape[2]]
+        up = F.pad(up, (0, depth.shape[2] - up.shape[2], 0, depth.shape[1] - up.shape[1]), value=-float("inf"))
+        solid = torch.where(up > config.solid_threshold, depth, torch.full_like(depth, float("inf")))
+        nearest_solid, solid_owner = solid.min(0)
+        small = torch.where(torch.isfinite(nearest_solid), solid_owner, small)
     full = small.repeat_interleave(config.mask_stride, 0).repeat_interleave(config.mask_stride, 1)
-    return full[:height, :width]
+    return full[:height, :width], frags.mask.flatten(1).sum(-1) * config.mask_stride**2
 
 
 def _evidence_cut(ownership: torch.Tensor, fg: torch.Tensor, threshold: float = 0.0) -> torch.Tensor:
@@ -874,19 +854,21 @@ def parse_objects(image, model: FeatureModel | None = None, config: ParserConfig
     timings["refine"] = t5 - t4
     t4 = t5
     fg = cell_scores(located, features, clutter, meshes, camera, config)[0] if located else None
-    keep = _not_fragments(located, camera, config, img, fg, background)
+    foreground = _foreground(img, background)
+    ownership, silhouette = _final_ownership(located, camera, config, img.size, fg, foreground)
+    keep = _not_fragments(ownership, silhouette, config.min_visible_fraction)
     if len(keep) < len(located):
         located, new_scores, tables = ([items[i] for i in keep] for items in (located, new_scores, tables))
         fg = fg[keep] if keep else None
-    record = _record(located, new_scores, tables, camera, config, img, fg, calibration, background)
+        ownership, _ = _final_ownership(located, camera, config, img.size, fg, foreground)
+    record = _record(located, new_scores, tables, camera, config, ownership, calibration)
     timings["record"] = time.perf_counter() - t4
     record.timings = timings
     return record
 
 
 def _record(accepted: list[Hypothesis], new_scores: list[float], tables: list, camera: Camera,
-            config: ParserConfig, img: ImageInput, fg: torch.Tensor | None, calibration: TableCalibration,
-            background: BackgroundModel | None = None) -> ObjectProposals:
+            config: ParserConfig, ownership: torch.Tensor, calibration: TableCalibration) -> ObjectProposals:
     n, k = len(accepted), config.azimuth_bins
     cat = torch.stack([t[0] for t in tables]) if n else torch.zeros(0, len(CATEGORIES), dtype=torch.float64)
     pose = torch.stack([t[1] for t in tables]) if n else torch.zeros(0, len(CATEGORIES), k, dtype=torch.float64)
@@ -897,7 +879,6 @@ def _record(accepted: list[Hypothesis], new_scores: list[float], tables: list, c
     existence = calibration.existence_scale * (torch.tensor(new_scores, dtype=torch.float64)
                                                - config.existence_threshold) + calibration.existence_bias
     size = torch.stack([t[2] for t in tables]) if n else torch.zeros(0, 2, dtype=torch.float64)
-    ownership = _final_ownership(accepted, camera, config, img, fg, background)
     masks = torch.stack([ownership == i for i in range(n)]) if n else torch.zeros(0, *ownership.shape, dtype=bool)
     support = torch.tensor(config.azimuths, dtype=torch.float64).expand(n, k).clone()
     return ObjectProposals(
@@ -910,32 +891,31 @@ def _record(accepted: list[Hypothesis], new_scores: list[float], tables: list, c
         notes=NOTES + ((RAW_NOTE,) if calibration == TableCalibration() else ()))
 
 
-def _final_ownership(accepted: list[Hypothesis], camera: Camera, config: ParserConfig, img: ImageInput,
-                     fg: torch.Tensor | None, background: BackgroundModel | None) -> torch.Tensor:
-    """The ownership map of the record: the meshes' z-buffer cut to the foreground (or to the evidence)."""
-    ownership = _ownership(accepted, camera, config, img.size, fg)
-    if background is not None and ownership.shape == background.ground.shape[:2]:
-        rgb = (img.pixels.permute(1, 2, 0).numpy() * 255.0).round().astype(np.uint8)
-        return _foreground_cut(ownership, background.foreground(rgb), config.grow_px)
+def _foreground(img: ImageInput, background: BackgroundModel | None) -> np.ndarray | None:
+    """The background model's foreground of ``img`` (None without a model, or one of another image size)."""
+    if background is None or tuple(img.size[::-1]) != background.ground.shape[:2]:
+        return None
+    rgb = (img.pixels.permute(1, 2, 0).numpy() * 255.0).round().astype(np.uint8)
+    return background.foreground(rgb)
+
+
+def _final_ownership(accepted: list[Hypothesis], camera: Camera, config: ParserConfig, size: tuple[int, int],
+                     fg: torch.Tensor | None, foreground: np.ndarray | None) -> tuple[torch.Tensor, torch.Tensor]:
+    """The record's ownership map (the z-buffer cut to the foreground, or to the evidence) and each proposal's
+    silhouette pixels (:func:`_ownership`)."""
+    ownership, silhouette = _ownership(accepted, camera, config, size, fg)
+    if foreground is not None:
+        return _foreground_cut(ownership, foreground, config.grow_px), silhouette
     if fg is not None and config.mask_by_evidence:
-        return _evidence_cut(ownership, fg, config.mask_threshold)
-    return ownership
+        return _evidence_cut(ownership, fg, config.mask_threshold), silhouette
+    return ownership, silhouette
 
 
-def _not_fragments(accepted: list[Hypothesis], camera: Camera, config: ParserConfig, img: ImageInput,
-                   fg: torch.Tensor | None, background: BackgroundModel | None) -> list[int]:
-    """Indices of the proposals whose final mask holds at least ``min_visible_fraction`` of their own mesh's
-    silhouette (rendered alone); the others are slivers of a neighbour that the 3D-NMS let through."""
-    from po3d_ppl.perception.rasterizer import rasterize_camera
-
-    if not accepted or config.min_visible_fraction <= 0:
-        return list(range(len(accepted)))
-    ownership = _final_ownership(accepted, camera, config, img, fg, background)
-    owned = torch.bincount(ownership[ownership >= 0].reshape(-1), minlength=len(accepted))
-    verts, faces, _ = _posed_meshes(accepted)
-    frags = rasterize_camera(verts, faces, camera, stride=config.mask_stride, cull_backfaces=True)
-    silhouette = frags.mask.flatten(1).sum(-1) * config.mask_stride**2
-    return [i for i in range(len(accepted)) if float(owned[i]) >= config.min_visible_fraction * float(silhouette[i])]
+def _not_fragments(ownership: torch.Tensor, silhouette: torch.Tensor, min_fraction: float) -> list[int]:
+    """Indices of the proposals owning at least ``min_fraction`` of their own silhouette's pixels; the others are
+    slivers of a neighbour that the 3D-NMS let through."""
+    owned = torch.bincount(ownership[ownership >= 0].reshape(-1), minlength=len(silhouette))
+    return [i for i in range(len(silhouette)) if float(owned[i]) >= min_fraction * float(silhouette[i])]
 
 
 @lru_cache(maxsize=1)
