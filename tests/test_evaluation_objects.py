@@ -32,6 +32,28 @@ def test_temperature_fit_recovers_the_generating_temperature():
     assert fit_temperature(logits, target) == pytest.approx(3.0, rel=0.08)
 
 
+def test_calibration_fit_scales_an_overconfident_size_table():
+    from po3d_ppl.evaluation.objects import fit_calibration
+
+    gen = torch.Generator().manual_seed(2)
+    objects, correct = [], 0
+    for i in range(400):  # size tables hundreds of nats apart, wrong one time in ten
+        truth = i % 2
+        right = bool(torch.rand((), generator=gen) > 0.1)
+        correct += right
+        margin = 300.0 * (1.0 + float(torch.rand((), generator=gen)))
+        table = [0.0, 0.0]
+        table[truth if right else 1 - truth] = margin
+        objects.append(ObjectOutcome("a.png", i, "car", 500, 0.0, 5.0, i, [0.0, -5, -5, -5, -5], 10.0, 0.1, 5.0,
+                                     [0.0] * 12, 0, table, truth))
+    image = ImageOutcome("a.png", objects, proposals=401, matched_small=0, existence_logodds=[3.0] * 400 + [-2.0],
+                         proposal_matched=[True] * 400 + [False], seconds=1.0, timings={})
+    calibration, report = fit_calibration([image])
+    assert calibration.size_temperature > 50.0  # raw: a wrong size would be impossible for the scene model
+    assert report["size_accuracy"] == pytest.approx(correct / 400)
+    assert report["fitted"]["size_nll"] < 0.5 < report["raw"]["size_nll"]
+
+
 def test_platt_fit_recovers_scale_and_bias():
     gen = torch.Generator().manual_seed(1)
     scores = 100.0 * torch.randn(8000, generator=gen, dtype=torch.float64)

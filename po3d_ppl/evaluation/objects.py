@@ -34,9 +34,10 @@ import torch
 from po3d_ppl import ontology
 from po3d_ppl.errors import InputError
 from po3d_ppl.evaluation.calibration import binned_calibration_error
-from po3d_ppl.perception.calibration import fit_temperature
+from po3d_ppl.perception.calibration import fit_temperature, top_label_ece
 
 CATEGORIES = tuple(ontology.CATEGORIES)
+SIZES = tuple(ontology.SIZES)
 
 
 def box_iou(a: Sequence[float], b: Sequence[float]) -> float:
@@ -83,6 +84,9 @@ class ObjectOutcome:
     #: The pose table of the true category and the index of its bin nearest the true azimuth (for calibration).
     pose_loglik: list[float] = field(default_factory=list)
     true_bin: int | None = None
+    #: The size table (large, small) and the true size's index.
+    size_loglik: list[float] = field(default_factory=list)
+    true_size: int | None = None
 
 
 @dataclass
@@ -128,6 +132,8 @@ def score_image(proposals, scene, image_name: str, seconds: float, min_pixels: i
             rel_true = np.asarray(o.position[:2]) - true_ground
             out.position_error = float(np.linalg.norm(rel_est - rel_true))
             out.depth = float(proposals.depths[p])
+            out.size_loglik = [float(v) for v in proposals.size_loglik[p]]
+            out.true_size = SIZES.index(o.size)
         outcomes.append(out)
     matched_to = {p: j for j, p in pairs.items()}
     small = sum(1 for j in pairs if objs[j].annotation.visible_pixels < min_pixels)
@@ -259,12 +265,18 @@ def fit_calibration(outcomes: Sequence[ImageOutcome], min_pixels: int = 200):
             if o.proposal >= 0 and o.visible_pixels >= min_pixels and o.pose_loglik]
     pose_logits = torch.tensor([r[0] for r in rows], dtype=torch.float64)
     t_pose = fit_temperature(pose_logits, torch.tensor([r[1] for r in rows]))
+    size_rows = [(o.size_loglik, o.true_size) for img in outcomes for o in img.objects
+                 if o.proposal >= 0 and o.visible_pixels >= min_pixels and o.size_loglik]
+    size_logits = torch.tensor([r[0] for r in size_rows], dtype=torch.float64).reshape(-1, len(SIZES))
+    size_target = torch.tensor([r[1] for r in size_rows], dtype=torch.long)
+    t_size = fit_temperature(size_logits, size_target, high=1e4)
     scores = torch.tensor([s for img in outcomes for s in img.existence_logodds], dtype=torch.float64)
     labels = torch.tensor([m for img in outcomes for m in img.proposal_matched])
     a, b = fit_platt(scores, labels)
-    calibration = TableCalibration(t_category, t_pose, a, b)
+    calibration = TableCalibration(t_category, t_pose, a, b, t_size)
 
-    def figures(tc: float, tp: float, ea: float, eb: float) -> dict[str, float]:
+    def figures(tc: float, tp: float, ea: float, eb: float, ts: float) -> dict[str, float]:
+        size = torch.log_softmax(size_logits / ts, -1)
         cat = torch.softmax(logits / tc, -1)
         pose = torch.softmax(pose_logits / tp, -1)
         exist = torch.sigmoid(ea * scores + eb)
@@ -278,10 +290,14 @@ def fit_calibration(outcomes: Sequence[ImageOutcome], min_pixels: int = 200):
             "pose_ece": binned_calibration_error(pose_conf.tolist(),
                                                  (pose_guess == torch.tensor([r[1] for r in rows])).tolist()),
             "existence_ece": binned_calibration_error(exist.tolist(), labels.tolist()),
+            "size_nll": float(torch.nn.functional.nll_loss(size, size_target)) if len(size_target) else None,
+            "size_ece": top_label_ece(size, size_target),
         }
 
     report = {"objects": len(target), "proposals": len(labels),
-              "raw": figures(1.0, 1.0, 1.0, 0.0), "fitted": figures(t_category, t_pose, a, b)}
+              "size_accuracy": float((size_logits.argmax(-1) == size_target).double().mean()) if len(size_target)
+              else None,
+              "raw": figures(1.0, 1.0, 1.0, 0.0, 1.0), "fitted": figures(t_category, t_pose, a, b, t_size)}
     return calibration, report
 
 
@@ -298,6 +314,7 @@ class EvidenceAsProposals:
     positions: torch.Tensor
     depths: torch.Tensor
     existence_logodds: torch.Tensor
+    size_loglik: torch.Tensor
     camera: object
     timings: dict = field(default_factory=dict)
 
@@ -307,7 +324,7 @@ class EvidenceAsProposals:
 
         return cls(evidence.boxes, category_marginal(evidence.subtype_loglik), evidence.pose_loglik,
                    evidence.pose_support, evidence.positions, evidence.depths, evidence.exist_logodds,
-                   evidence.camera, dict(timings or {}))
+                   evidence.size_loglik, evidence.camera, dict(timings or {}))
 
     def __len__(self) -> int:
         return int(self.existence_logodds.shape[0])

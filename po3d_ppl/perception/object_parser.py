@@ -878,7 +878,8 @@ def _record(accepted: list[Hypothesis], new_scores: list[float], tables: list, c
     cat = cat / calibration.category_temperature
     existence = calibration.existence_scale * (torch.tensor(new_scores, dtype=torch.float64)
                                                - config.existence_threshold) + calibration.existence_bias
-    size = torch.stack([t[2] for t in tables]) if n else torch.zeros(0, 2, dtype=torch.float64)
+    size = torch.stack([t[2] for t in tables]) / calibration.size_temperature if n else \
+        torch.zeros(0, 2, dtype=torch.float64)
     masks = torch.stack([ownership == i for i in range(n)]) if n else torch.zeros(0, *ownership.shape, dtype=bool)
     support = torch.tensor(config.azimuths, dtype=torch.float64).expand(n, k).clone()
     return ObjectProposals(
