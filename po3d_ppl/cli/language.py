@@ -8,6 +8,25 @@ from pathlib import Path
 
 import typer
 
+_PARSER_DIR_HELP = ("Another parser directory, parsing together with --model-dir's as an ensemble (repeat for more; "
+                    "see po3d_ppl/language/seq2seq/ensemble.py).")
+_ENSEMBLE_RULE_HELP = ("With --parser-dir: how the members' program log-probabilities combine: product (their mean) "
+                       "or mixture (the log of the mean probability).")
+
+
+def _load_parser(model_dir: Path | None, parser_dirs: list[Path] | None, rule: str, unknown_words: bool = True):
+    """The parser of ``model_dir`` (default: models/), or with ``parser_dirs`` an ensemble of it and them."""
+    from po3d_ppl.errors import InputError
+    from po3d_ppl.language import QuestionParser
+    from po3d_ppl.language.seq2seq.ensemble import RULES, ParserEnsemble
+
+    if rule not in RULES:
+        raise InputError("--ensemble-rule", f"must be one of {', '.join(RULES)}, got {rule!r}")
+    if parser_dirs:
+        return ParserEnsemble.load([model_dir, *parser_dirs], rule, unknown_words=unknown_words)
+    loaded = QuestionParser.load(model_dir)
+    return loaded if unknown_words else QuestionParser(loaded.trained, unknown_words=False)
+
 
 def parse(
     question: str = typer.Argument(..., help="The question, in quotes."),
@@ -15,13 +34,15 @@ def parse(
     beam: int = typer.Option(5, "--beam", min=1, help="Beam width (at least --n is used)."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON (text, tokens, public JSON, probabilities)."),
     model_dir: Path = typer.Option(None, "--model-dir", help="Directory with the parser files (default: models/)."),
+    parser_dir: list[Path] = typer.Option(None, "--parser-dir", help=_PARSER_DIR_HELP),
+    ensemble_rule: str = typer.Option("mixture", "--ensemble-rule", help=_ENSEMBLE_RULE_HELP),
 ) -> None:
     """Parse a question into its n most probable programs, with probabilities and unknown words."""
     from rich.console import Console
 
-    from po3d_ppl.language import QuestionParser, program_to_json, program_to_text
+    from po3d_ppl.language import program_to_json, program_to_text
 
-    result = QuestionParser.load(model_dir).parse(question, n=n, beam=beam)
+    result = _load_parser(model_dir, parser_dir, ensemble_rule).parse(question, n=n, beam=beam)
     if as_json:
         print(json.dumps({
             "question": question,
@@ -273,6 +294,13 @@ def eval_language_command(
                                             "subword input for unknown words."),
     beam: int = typer.Option(5, "--beam", min=1),
     model_dir: Path = typer.Option(None, "--model-dir", help="Directory with the parser files (default: models/)."),
+    parser_dir: list[Path] = typer.Option(None, "--parser-dir", help=_PARSER_DIR_HELP),
+    ensemble_rule: str = typer.Option("mixture", "--ensemble-rule", help=_ENSEMBLE_RULE_HELP),
+    ensemble_calibration: int = typer.Option(0, "--ensemble-calibration", min=0,
+                                             help="With --parser-dir: fit the ensemble's own confidence calibration "
+                                                  "on this many perturbed corpus questions of seed 2001 (as `po3d "
+                                                  "train parser-calibration`) first; 0: the mean of the members' "
+                                                  "calibrations."),
     json_out: Path = typer.Option(None, "--json", help="Write the report (with every miss) here."),
     record: bool = typer.Option(False, "--record", help="Store the summary in the model's manifest entry."),
     threads: int = typer.Option(1, "--threads", min=1, help="torch CPU threads."),
@@ -285,14 +313,20 @@ def eval_language_command(
     from po3d_ppl.cli._common import literal
     from po3d_ppl.errors import InputError
     from po3d_ppl.evaluation.calibration import binned_calibration_error
-    from po3d_ppl.language import QuestionParser
     from po3d_ppl.questions.parser_eval import SceneQuestion, judge, load_question_set, summarise
 
     if (independent is None) == (corpus_seed is None):
         raise InputError("--independent/--corpus-seed", "give exactly one of them")
+    if record and parser_dir:
+        raise InputError("--record", "records one model's metrics in its manifest; not with --parser-dir")
     torch.set_num_threads(threads)
-    loaded = QuestionParser.load(model_dir)
-    parser = QuestionParser(loaded.trained, unknown_words=unknown_words)
+    parser = _load_parser(model_dir, parser_dir, ensemble_rule, unknown_words)
+    if ensemble_calibration and parser_dir:
+        from po3d_ppl.questions.parser_corpus import CorpusConfig, generate_corpus
+
+        fitted = parser.fit_calibration(generate_corpus(ensemble_calibration, CorpusConfig(seed=2001)), seed=2001)
+        Console().print(f"ensemble calibration {fitted.calibration} (ECE on its {fitted.questions} questions "
+                        f"{fitted.ece_before:.4f} -> {fitted.ece_after:.4f})", markup=False, highlight=False)
     if independent is not None:
         records = load_question_set(independent)
         source = str(independent)
@@ -307,8 +341,13 @@ def eval_language_command(
     report = summarise(judged)
     report["ece"] = binned_calibration_error([j.confidence for j in judged], [j.correct for j in judged])
     report.update(source=source, unknown_words=unknown_words, beam=beam)
-    table = Table(title=literal(f"question parser on {source}" + ("" if unknown_words else " (no unknown-word "
-                                                                                           "mechanism)")),
+    if parser_dir:
+        report["ensemble"] = {"members": [str(model_dir or "models/"), *map(str, parser_dir)], "rule": ensemble_rule,
+                              "calibration_questions": ensemble_calibration}
+    title = f"question parser on {source}" + ("" if unknown_words else " (no unknown-word mechanism)")
+    if parser_dir:
+        title += f" (ensemble of {1 + len(parser_dir)}, {ensemble_rule} rule)"
+    table = Table(title=literal(title),
                   caption="correct: exact match or the same answer on the record's scene")
     for col in ("family group", "questions", "correct", "exact", "mean confidence"):
         table.add_column(col, justify="left" if col == "family group" else "right")

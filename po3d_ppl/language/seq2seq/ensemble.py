@@ -1,0 +1,200 @@
+"""An ensemble of question parsers: the members' n-best lists merged and re-scored under every member.
+
+Why: on questions worded by a new author the parser's accuracy moves by one to two points with the training seed
+alone (docs/language.md, dev 2), so one run's mistakes are partly its own. Models trained with other seeds or
+corpora disagree on those, and a candidate that all of them find probable is more likely right.
+
+How: each member decodes the question as usual (its own words, normaliser and constrained beam) and proposes its
+n-best programs. Every candidate of the union is then scored under every member by teacher forcing: the
+log-probability of the candidate's target tokens under that member's constrained (masked) distribution, the same
+quantity its beam search reports. A member whose vocabulary, registry or length budget cannot express a candidate
+gives it -inf. The members' log-probabilities are combined by
+
+- ``"product"``: their mean (the log of the geometric mean of the probabilities, a product of experts with
+  exponents 1/M). Its sum over all programs is at most 1 (geometric mean <= arithmetic mean), so it is left
+  unnormalised: the intractable normaliser would only raise every probability by the same factor, and leaving
+  it keeps M copies of one parser identical to that parser.
+- ``"mixture"``: the log of the mean probability, a proper distribution over programs (chosen on dev 2).
+
+Re-scoring whole candidates, rather than combining the members' next-token distributions inside one beam, lets
+members have different word and target vocabularies and costs one batched teacher-forced pass per member.
+
+The result is a :class:`~po3d_ppl.language.seq2seq.model_io.QuestionParse` like a single parser's, so answering,
+evaluation and the CLI work unchanged. Words, unknown words and corrections are the first member's. The
+confidence is the mean of the members' calibrations applied to the combined top probability (each with its own
+unknown-word and rewrite counts; with one member, that member's confidence), unless the ensemble has a
+calibration of its own (:meth:`ParserEnsemble.fit_calibration`, fitted as a single parser's is).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Literal
+
+import numpy as np
+import torch
+
+from po3d_ppl.errors import InputError
+from po3d_ppl.language.ast import Program
+from po3d_ppl.language.satisfiable import unsatisfiable_node
+from po3d_ppl.language.seq2seq.calibrate import CalibrationReport, fit_calibration
+from po3d_ppl.language.seq2seq.data import Example
+from po3d_ppl.language.seq2seq.decode import beam_search
+from po3d_ppl.language.seq2seq.model_io import Calibration, ParsedProgram, QuestionParse, QuestionParser
+from po3d_ppl.language.seq2seq.vocab import tokenize
+from po3d_ppl.language.tokens import program_to_tokens
+from po3d_ppl.language.typecheck import check_program
+
+Rule = Literal["product", "mixture"]
+RULES: tuple[str, ...] = ("product", "mixture")
+
+
+@torch.inference_mode()
+def sequence_log_probs(member: QuestionParser, words: torch.Tensor, ngrams: torch.Tensor | None,
+                       programs: Sequence[Program]) -> list[float]:
+    """Teacher-forced log-probability of each of ``programs`` under ``member`` for the encoded question
+    (``words``, ``ngrams`` from ``member.encode``), under the type-constrained distribution its beam search uses;
+    -inf for a program the member cannot express (a token outside its vocabulary, a token its automaton does not
+    allow there, or too long)."""
+    automaton, targets = member.automaton, member.trained.targets
+    out = [-math.inf] * len(programs)
+    rows: list[int] = []
+    sequences: list[list[int]] = []
+    for i, program in enumerate(programs):
+        try:
+            ids = targets.encode(program)
+        except KeyError:
+            continue
+        if 0 < len(ids) <= automaton.max_len:
+            rows.append(i)
+            sequences.append(ids)
+    if not rows:
+        return out
+    k, length = len(rows), max(len(s) for s in sequences)
+    memory, keys, h, c = member.model.start(words, ngrams)
+    h, c = h.expand(k, -1).contiguous(), c.expand(k, -1).contiguous()
+    states = [automaton.initial() for _ in rows]
+    totals = np.zeros(k)
+    alive = np.ones(k, dtype=bool)
+    prev = torch.zeros(k, dtype=torch.long, device=words.device)
+    vocab = automaton.vocab_size
+    for t in range(length):
+        logits, h, c = member.model.step(member.step_weights, prev, h, c, memory, keys)
+        running = [j for j in range(k) if alive[j] and t < len(sequences[j])]
+        if not running:
+            break
+        allowed = np.zeros((k, vocab), dtype=bool)
+        allowed[:, 0] = True  # rows with nothing to score here (finished or dead) keep a finite softmax
+        for j in running:
+            allowed[j] = automaton.allowed(states[j])
+        log_probs = torch.log_softmax(logits.masked_fill(~torch.from_numpy(allowed), float("-inf")), dim=-1)
+        tokens = [sequences[j][t] if t < len(sequences[j]) else 0 for j in range(k)]
+        picked = log_probs.gather(1, torch.tensor(tokens)[:, None])[:, 0].tolist()
+        for j in running:
+            token = tokens[j]
+            if not allowed[j, token] or states[j].complete:
+                alive[j] = False
+                continue
+            totals[j] += picked[j]
+            states[j] = automaton.advance(states[j], token)
+        prev = torch.tensor(tokens, device=words.device)
+    for j, i in enumerate(rows):
+        if alive[j] and states[j].complete:
+            out[i] = float(totals[j])
+    return out
+
+
+def combine(log_probs: Sequence[float], rule: Rule) -> float:
+    """The ensemble's log-probability of one candidate from its members' log-probabilities."""
+    if rule == "product":
+        return sum(log_probs) / len(log_probs)  # -inf if any member gives -inf
+    finite = [lp for lp in log_probs if lp > -math.inf]
+    if not finite:
+        return -math.inf
+    top = max(finite)
+    return top + math.log(sum(math.exp(lp - top) for lp in finite) / len(log_probs))
+
+
+class ParserEnsemble:
+    """Question -> n-best programs from several :class:`QuestionParser` members (see the module docstring)."""
+
+    def __init__(self, members: Sequence[QuestionParser], rule: Rule = "mixture", propose: int | None = None,
+                 calibration: Calibration | None = None):
+        """``propose``: how many programs each member proposes (default ``max(n, beam)`` of the call)."""
+        if not members:
+            raise InputError("members", "an ensemble needs at least one parser")
+        if rule not in RULES:
+            raise InputError("rule", f"must be one of {', '.join(RULES)}, got {rule!r}")
+        self.members = list(members)
+        self.rule = rule
+        self.propose = propose
+        self.calibration = calibration
+        self.registry = self.members[0].registry
+
+    @classmethod
+    def load(cls, directories: Sequence[str | None], rule: Rule = "mixture", device: str | torch.device = "cpu",
+             unknown_words: bool = True, **options) -> ParserEnsemble:
+        """Members loaded from ``directories`` (None: the shipped parser), each checked against its manifest."""
+        members = []
+        for directory in directories:
+            loaded = QuestionParser.load(directory, device=device)
+            members.append(loaded if unknown_words else QuestionParser(loaded.trained, device=device,
+                                                                       unknown_words=False))
+        return cls(members, rule, **options)
+
+    def parse(self, question: str, n: int = 1, beam: int = 5) -> QuestionParse:
+        """The ``n`` most probable programs for ``question`` under the combined scores (beam ``max(beam, n)``
+        for each member)."""
+        if not isinstance(question, str) or not tokenize(question):
+            raise InputError("question", f"{question!r} has no words to parse")
+        if n < 1:
+            raise InputError("n", f"must be at least 1, got {n}")
+        beam = max(beam, n)
+        propose = max(self.propose or beam, n)
+        encoded = [member.encode(question) for member in self.members]
+        programs: dict[tuple[str, ...], Program] = {}
+        known: list[dict[tuple[str, ...], float]] = []  # each member's own beam scores (= its teacher-forced ones)
+        for member, (_, words, ngrams, _, _) in zip(self.members, encoded):
+            scores = {}
+            for hypothesis in beam_search(member.model, member.automaton, words, n=propose, beam=max(beam, propose),
+                                          weights=member.step_weights, ngrams=ngrams):
+                program = member.trained.targets.decode(hypothesis.ids, member.registry)
+                key = tuple(program_to_tokens(program))
+                programs.setdefault(key, program)
+                scores[key] = hypothesis.log_prob
+            known.append(scores)
+        keys = list(programs)
+        table = np.empty((len(self.members), len(keys)))
+        for m, (member, (_, words, ngrams, _, _)) in enumerate(zip(self.members, encoded)):
+            missing = [key for key in keys if key not in known[m]]
+            rescored = dict(zip(missing, sequence_log_probs(member, words, ngrams, [programs[k] for k in missing])))
+            table[m] = [known[m][key] if key in known[m] else rescored[key] for key in keys]
+        combined = [combine(table[:, i].tolist(), self.rule) for i in range(len(keys))]
+        if all(score == -math.inf for score in combined):  # no candidate every member can express
+            combined = [combine(table[:, i].tolist(), "mixture") for i in range(len(keys))]
+        order = sorted((i for i in range(len(keys)) if combined[i] > -math.inf), key=lambda i: -combined[i])[:n]
+        candidates = []
+        for i in order:
+            program = programs[keys[i]]
+            types = check_program(program, self.registry).types
+            candidates.append(ParsedProgram(program, combined[i], unsatisfiable_node(program, types) is None))
+        tokens, _, _, corrections, unknown = encoded[0]
+        return QuestionParse(question, tuple(tokens), tuple(unknown), tuple(candidates), tuple(corrections),
+                             self._confidence(candidates[0].probability, encoded) if candidates else 0.0)
+
+    def fit_calibration(self, examples: Sequence[Example], seed: int = 0) -> CalibrationReport:
+        """Fit the ensemble's own calibration on perturbed held-out corpus ``examples``, as ``po3d train
+        parser-calibration`` fits a single parser's, and use it from now on (the combined probability is not the
+        members' own, so their calibrations only approximate it)."""
+        self.calibration = None
+        report = fit_calibration(self, examples, seed=seed)
+        self.calibration = report.calibration
+        return report
+
+    def _confidence(self, probability: float, encoded: list) -> float:
+        if self.calibration is not None:
+            _, _, _, corrections, unknown = encoded[0]
+            return self.calibration(probability, len(unknown), len(corrections))
+        return sum(member.calibration(probability, len(unknown), len(corrections))
+                   for member, (_, _, _, corrections, unknown) in zip(self.members, encoded)) / len(self.members)

@@ -1,0 +1,94 @@
+"""The parser ensemble (po3d_ppl/language/seq2seq/ensemble.py) on the shipped parser: one member is the parser
+itself, copies of a member change nothing, teacher forcing reproduces the beam's scores, and the combined n-best
+probabilities are a (sub-)distribution; `po3d parse --parser-dir`."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+from typer.testing import CliRunner
+
+from po3d_ppl.cli import app
+from po3d_ppl.errors import InputError
+from po3d_ppl.language import QuestionParser, parse_program
+from po3d_ppl.language.seq2seq.ensemble import RULES, ParserEnsemble, combine, sequence_log_probs
+from po3d_ppl.model_store import models_dir
+
+pytestmark = pytest.mark.usefixtures("torch_one_thread")
+
+QUESTIONS = ("What color is the front wheel of the big red car?",
+             "Is the number of blorp trucks greater than the number of sednas?")
+
+
+@pytest.fixture(scope="module")
+def shipped(torch_one_thread) -> QuestionParser:
+    return QuestionParser.load()
+
+
+def _tokens(parse) -> list[tuple[str, ...]]:
+    return [tuple(c.tokens) for c in parse.candidates]
+
+
+@pytest.mark.parametrize("rule", RULES)
+def test_an_ensemble_of_one_is_the_parser(shipped, rule):
+    for question in QUESTIONS:
+        single = shipped.parse(question, n=3)
+        alone = ParserEnsemble([shipped], rule).parse(question, n=3)
+        assert alone.best.tokens == single.best.tokens
+        assert _tokens(alone) == _tokens(single)
+        assert [c.log_prob for c in alone.candidates] == pytest.approx([c.log_prob for c in single.candidates])
+        assert sum(c.probability for c in alone.candidates) <= 1 + 1e-6
+        assert alone.confidence == pytest.approx(single.confidence)
+        assert (alone.unknown_words, alone.corrections) == (single.unknown_words, single.corrections)
+
+
+@pytest.mark.parametrize("rule", RULES)
+def test_two_copies_give_the_distribution_of_one(shipped, rule):
+    question = QUESTIONS[1]
+    once = ParserEnsemble([shipped], rule).parse(question, n=4)
+    twice = ParserEnsemble([shipped, shipped], rule).parse(question, n=4)
+    assert _tokens(twice) == _tokens(once)
+    assert [c.probability for c in twice.candidates] == pytest.approx([c.probability for c in once.candidates])
+
+
+def test_different_members_combine_into_a_sub_distribution(shipped):
+    # Without the unknown-word mechanism the typo'd question reads differently: two members that disagree.
+    bare = QuestionParser(shipped.trained, unknown_words=False)
+    for rule in RULES:
+        parse = ParserEnsemble([shipped, bare], rule).parse(QUESTIONS[1], n=5)
+        probabilities = [c.probability for c in parse.candidates]
+        assert probabilities == sorted(probabilities, reverse=True)
+        assert 0 < sum(probabilities) <= 1 + 1e-6
+        assert len(set(_tokens(parse))) == len(parse.candidates)
+
+
+def test_teacher_forcing_reproduces_the_beam_and_rejects_what_cannot_be_said(shipped):
+    question = QUESTIONS[0]
+    parse = shipped.parse(question, n=4)
+    _, words, ngrams, _, _ = shipped.encode(question)
+    programs = [c.program for c in parse.candidates] + [parse_program("scene()")]  # not a question's type
+    scores = sequence_log_probs(shipped, words, ngrams, programs)
+    assert scores[:-1] == pytest.approx([c.log_prob for c in parse.candidates], abs=1e-4)
+    assert scores[-1] == -math.inf
+
+
+def test_combination_rules():
+    a, b = math.log(0.5), math.log(0.1)
+    assert combine([a, b], "product") == pytest.approx(math.log(math.sqrt(0.05)))
+    assert combine([a, b], "mixture") == pytest.approx(math.log(0.3))
+    assert combine([a, -math.inf], "product") == -math.inf
+    assert combine([a, -math.inf], "mixture") == pytest.approx(math.log(0.25))
+    with pytest.raises(InputError):
+        ParserEnsemble([], "mixture")
+
+
+def test_cli_parses_with_an_ensemble(shipped):
+    question = QUESTIONS[0]
+    result = CliRunner().invoke(app, ["parse", question, "--n", "2", "--json", "--parser-dir", str(models_dir())])
+    assert result.exit_code == 0, result.output
+    programs = json.loads(result.output)["programs"]
+    assert [p["tokens"] for p in programs] == [c.tokens for c in shipped.parse(question, n=2).candidates]
+    bad = CliRunner().invoke(app, ["parse", question, "--parser-dir", str(models_dir()), "--ensemble-rule", "vote"])
+    assert bad.exit_code != 0
