@@ -13,6 +13,13 @@ Families: the dataset template files (Super-CLEVR-3D's 61, our core and height/d
 families of ``templates/clevr/`` and the further forms of ``templates/extra/`` (object occlusion, pose and occlusion
 counts, part counts). Deterministic from ``seed``; a different seed gives an unseen sample of the same
 distribution (the in-distribution test).
+
+Opt-in family sets (:data:`OPT_IN_FAMILIES`; ``CorpusConfig.extra_families``, ``po3d train parser
+--extra-families NAME``) join the corpus only when named, so the default corpus stays what the shipped parser was
+trained on: ``compare_relate`` (``templates/extra/compare_relate.json``, six integer comparisons of two counts
+around one referent named once, with the realiser's "... than left of it" wording) trained the ensemble's second
+and third members (docs/language.md). A named set's files take the place they sort to among their folder's files,
+as when they were part of the default corpus, so those members' corpus is reproduced item for item.
 """
 
 from __future__ import annotations
@@ -23,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from po3d_ppl import ontology
+from po3d_ppl.errors import InputError
 from po3d_ppl.language.json_io import program_from_json
 from po3d_ppl.language.seq2seq.data import Example, canonical_targets
 from po3d_ppl.questions.realise import Realiser, Unrealisable
@@ -49,6 +57,13 @@ _PARTS_OF_CATEGORY = {
 }
 
 
+#: Family sets outside the default corpus, by name: their template files (``folder/file.json``) and whether the
+#: realiser also says two counts around one referent with the referent named once (``Realiser.compare_around``).
+OPT_IN_FAMILIES: dict[str, dict] = {
+    "compare_relate": {"files": ("extra/compare_relate.json",), "compare_around": True},
+}
+
+
 @dataclass(frozen=True)
 class CorpusConfig:
     seed: int = 0
@@ -56,14 +71,32 @@ class CorpusConfig:
     template_text: float = 0.35
     #: Share of questions with redundant descriptions.
     redundant: float = 0.15
+    #: Names of :data:`OPT_IN_FAMILIES` sets to add (none: the default corpus).
+    extra_families: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        object.__setattr__(self, "extra_families", check_extra_families(self.extra_families))
 
 
-def corpus_families() -> list[Template]:
-    """Every family the corpus draws from."""
+def check_extra_families(names) -> tuple[str, ...]:
+    """``names`` as a sorted tuple without repeats, each a key of :data:`OPT_IN_FAMILIES` (else an InputError)."""
+    names = tuple(sorted(set(names or ())))
+    unknown = [n for n in names if n not in OPT_IN_FAMILIES]
+    if unknown:
+        raise InputError("--extra-families", f"unknown family set {', '.join(map(repr, unknown))}; known: "
+                                             f"{', '.join(OPT_IN_FAMILIES)}")
+    return names
+
+
+def corpus_families(extra_families: tuple[str, ...] = ()) -> list[Template]:
+    """Every family the corpus draws from: the default ones, and those of the named opt-in sets."""
+    wanted = {f for name in check_extra_families(extra_families) for f in OPT_IN_FAMILIES[name]["files"]}
+    opt_in = {f for spec in OPT_IN_FAMILIES.values() for f in spec["files"]}
     families = [t for f in template_files() for t in load_template_file(f)]
     for folder in TEMPLATE_FOLDERS:
-        for templates in load_template_folder(folder).values():
-            families.extend(templates)
+        for filename, templates in load_template_folder(folder).items():
+            if filename not in opt_in or filename in wanted:
+                families.extend(templates)
     return families
 
 
@@ -222,9 +255,9 @@ def generate_corpus(count: int, config: CorpusConfig = CorpusConfig(),
 
 def iter_corpus(count: int, config: CorpusConfig = CorpusConfig(),
                 families: list[Template] | None = None) -> Iterator[Example]:
-    families = families if families is not None else corpus_families()
+    families = families if families is not None else corpus_families(config.extra_families)
     rng = np.random.default_rng(config.seed)
-    realiser = Realiser(rng)
+    realiser = Realiser(rng, compare_around=any(OPT_IN_FAMILIES[n]["compare_around"] for n in config.extra_families))
     made = 0
     while made < count:
         template = families[int(rng.integers(len(families)))]

@@ -75,8 +75,13 @@ _ATTR_NAME = {"size": ("size",), "color": ("color", "colour"), "material": ("mat
 class Realiser:
     """Writes questions for programs; one instance per random stream."""
 
-    def __init__(self, rng: np.random.Generator):
+    def __init__(self, rng: np.random.Generator, compare_around: bool = False):
+        """``compare_around``: say two counts taken around one referent with the referent named once ("Are there
+        more cars right of the bus than left of it?"); part of the opt-in ``compare_relate`` corpus families
+        (:data:`po3d_ppl.questions.parser_corpus.OPT_IN_FAMILIES`), off by default so the default corpus is
+        unchanged."""
         self.rng = rng
+        self.compare_around = compare_around
 
     # ----- choices ---------------------------------------------------------------------------------------------
     def pick(self, options):
@@ -1015,6 +1020,8 @@ class Realiser:
         a, b = self._in(node, 0), self._in(node, 1)
         if a.function != "count" or b.function != "count":
             raise Unrealisable("count comparison of non-counts")
+        if self.compare_around and self._one_referent(self._in(a), self._in(b)) and self.chance(0.85):
+            return self._compare_around(node.function, self._in(a), self._in(b))
         x, y = self.np(self.obj(self._in(a)), "plural"), self.np(self.obj(self._in(b)), "plural")
         f = node.function
         n = self.pick(("number", "number", "number", "count", "amount", "quantity", "total number"))
@@ -1040,6 +1047,52 @@ class Realiser:
                       f"Is the number of {x} equal to the number of {y}?", f"Are there an equal number of {x} and {y}?",
                       f"Is the number of {x} equal to that of {y}?", f"Do {x} and {y} have the same count?"]
         return self.pick(frames)
+
+    def _one_referent(self, a: Node, b: Node) -> bool:
+        """Both sides are objects related to the same referent (the same chain), narrowed by attributes only."""
+        ra, rb = _relate_below(self.program, a), _relate_below(self.program, b)
+        return (ra is not None and rb is not None and ra.value != rb.value
+                and _subtree(self.program, ra.inputs[0]) == _subtree(self.program, rb.inputs[0]))
+
+    def _compare_around(self, f: str, a: Node, b: Node) -> str:
+        """Two counts on two sides of one referent, named once: "Are there more cars right of the bus than left
+        of it?", "Is the number of things behind the car the same as the number of buses in front of it?"."""
+        first, second = self.obj(a), self.obj(b)
+        x = self.np(first, "plural")
+        where = f"{self.pick(lx.RELATION_FORMS[_relate_below(self.program, b).value])} it"
+        second.posts, second.other = [(where, where)], False
+        if (second.attrs, second.shape) == (first.attrs, first.shape) and self.chance(0.7):  # "... than left of it"
+            big = self.pick(("greater", "larger", "bigger", "higher"))
+            small = self.pick(("less", "smaller", "lower"))
+            frames = {
+                "greater_than": [f"Are there more {x} than {where}?", f"Are there more {x} than there are {where}?",
+                                 f"Is the number of {x} {big} than the number {where}?",
+                                 f"Are there more {x} than {where} instead?"],
+                "less_than": [f"Are there fewer {x} than {where}?", f"Are there less {x} than {where}?",
+                              f"Is the number of {x} {small} than the number {where}?",
+                              f"Are there fewer {x} than there are {where}?"],
+                "equal_integer": [f"Are there as many {x} as {where}?", f"Are there as many {x} as there are {where}?",
+                                  f"Is the number of {x} the same as the number {where}?",
+                                  f"Is the number of {x} equal to the number {where}?",
+                                  f"Are there the same number of {x} as {where}?"],
+            }[f]
+            return self.pick(frames)
+        y = self.np(second, "plural")
+        n = self.pick(("number", "number", "number", "count", "amount"))
+        return self.pick(self._more_count_frames(f, x, y, n, n))
+
+
+def _relate_below(program: Program, node: Node) -> Node | None:
+    """The ``relate`` node under a chain of attribute filters, if that is what ``node`` is."""
+    while node.function in ("filter_size", "filter_color", "filter_material", "filter_shape"):
+        node = program[node.inputs[0]]
+    return node if node.function == "relate" else None
+
+
+def _subtree(program: Program, index: int) -> tuple:
+    """A hashable description of the sub-program computing node ``index`` (equal for equal computations)."""
+    node = program[index]
+    return node.function, node.value, tuple(_subtree(program, i) for i in node.inputs)
 
 
 def _has_clause(phrase: str) -> bool:

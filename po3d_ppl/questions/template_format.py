@@ -184,7 +184,9 @@ def template_files() -> list[str]:
 
 
 #: Template folders beside the dataset files: families the question parser's corpus instantiates but dataset builds
-#: do not (``clevr/``: the 90 CLEVR-core families; ``extra/``: further forms people ask).
+#: do not (``clevr/``: the 90 CLEVR-core families; ``extra/``: further forms people ask). Files of an opt-in set
+#: (``parser_corpus.OPT_IN_FAMILIES``, e.g. ``extra/compare_relate.json``) are listed here but enter the corpus only
+#: when it names them.
 TEMPLATE_FOLDERS = ("clevr", "extra")
 
 
