@@ -38,7 +38,8 @@ def answer_question(reasoner: SceneReasoner, question: str, parser=None, *, n_be
                     num_samples: int = 4096, seed: int = 0, budget: Budget | None = None, presuppose: bool = True
                     ) -> tuple[AnswerDistribution, object]:
     """(the answer distribution marginalised over the n-best programs, the parse); ``parser`` defaults to the
-    shipped :class:`~po3d_ppl.language.QuestionParser`; ``budget`` bounds each program's inference call.
+    shipped parser (:func:`~po3d_ppl.language.load_question_parser`: an ensemble of
+    :class:`~po3d_ppl.language.QuestionParser` members); ``budget`` bounds each program's inference call.
 
     By default the distribution is P(answer | the question's presuppositions hold), with P(they fail) in
     ``presupposition_failure`` and a :class:`~po3d_ppl.reasoning.answer.PresuppositionWarning` when it is high;
@@ -98,26 +99,29 @@ class Pipeline:
         return out
 
 
-def load_pipeline(models_dir: str | Path | None = None, device: str | None = None) -> Pipeline:
+def load_pipeline(models_dir: str | Path | None = None, device: str | None = None, *,
+                  single_parser: bool = False) -> Pipeline:
     """The shipped perception models and question parser (or those of ``models_dir``), checked against their
-    sha256; ``device`` (default CPU) for the networks."""
-    from po3d_ppl.language import QuestionParser
+    sha256; ``device`` (default CPU) for the networks. The question parser is the ensemble the manifest lists
+    (:func:`~po3d_ppl.language.load_question_parser`); ``single_parser=True`` takes its single parser instead
+    (the ablation)."""
+    from po3d_ppl.language import load_question_parser
     from po3d_ppl.perception.priors import load_priors
     from po3d_ppl.perception.scene_parser import ImageParser
     from po3d_ppl.reasoning.answer_calibration import load_answer_calibration
 
     device = device or "cpu"
     perception = ImageParser.load(models_dir, device)
-    return Pipeline(perception, QuestionParser.load(models_dir, device=device),
+    return Pipeline(perception, load_question_parser(models_dir, single=single_parser, device=device),
                     perception.scene_priors(load_priors(models_dir)), load_answer_calibration(models_dir))
 
 
-@lru_cache(maxsize=1)
-def _shipped_parser():
-    """The shipped question parser, loaded once per process."""
-    from po3d_ppl.language import QuestionParser
+@lru_cache(maxsize=2)
+def _shipped_parser(single: bool = False):
+    """The shipped question parser (the ensemble; ``single``: its single parser), loaded once per process."""
+    from po3d_ppl.language import load_question_parser
 
-    return QuestionParser.load()
+    return load_question_parser(single=single)
 
 
 @lru_cache(maxsize=1)

@@ -21,6 +21,8 @@ def answer(
     method: str = typer.Option("auto", "--method", help="auto, exact, sampling, thresholded, soft."),
     samples: int = typer.Option(4096, "--samples", help="Posterior samples for method=sampling."),
     n_best: int = typer.Option(3, "--parses", help="Parses of the question to marginalise over."),
+    single_parser: bool = typer.Option(False, "--single-parser", help="The single question parser instead of the "
+                                                                      "shipped ensemble (the ablation)."),
     max_gib: float = typer.Option(2.0, "--max-gib", help="Memory budget of the inference call, GiB."),
     max_seconds: float = typer.Option(10.0, "--max-seconds", help="Time budget of the inference call, seconds "
                                                                   "(auto falls back to sampling past half of it)."),
@@ -59,13 +61,17 @@ def answer(
     if (scene is None) == (image is None):
         raise InputError("--scene/--image", "give exactly one of a scene file or an image")
     parser = calibration = None  # the shipped parser; no answer calibration for the simulated sensor
+    if single_parser and question is not None:
+        from po3d_ppl.pipeline import _shipped_parser
+
+        parser = _shipped_parser(single=True)
     if image is not None:
         if check_semantics(semantics) == PUBLIC:
             raise InputError("--semantics", "public semantics reads the public annotation of a scene file; use "
                                             "--scene with it")
         from po3d_ppl.pipeline import load_pipeline
 
-        pipeline = load_pipeline()
+        pipeline = load_pipeline(single_parser=single_parser)
         reasoner = SceneReasoner(pipeline.perception.evidence(image), pipeline.priors, semantics=semantics)
         parser, calibration = pipeline.parser, pipeline.answer_calibration  # fitted on perception's evidence
     else:

@@ -35,7 +35,7 @@ def demo(
 
     from po3d_ppl.cli._common import check_seed, literal
     from po3d_ppl.errors import InputError
-    from po3d_ppl.language import QuestionParser, program_to_text
+    from po3d_ppl.language import program_to_text
     from po3d_ppl.perception import simulated_evidence
     from po3d_ppl.pipeline import answer_question
     from po3d_ppl.questions.scene_questions import generate_questions
@@ -84,7 +84,7 @@ def demo(
     else:
         from po3d_ppl.perception.priors import load_priors
 
-        parser = QuestionParser.load()
+        parser = None  # answer_question's default: the shipped parser
         reasoner = SceneReasoner(simulated_evidence(scene, noise=noise, seed=seed), load_priors())
         source = f"ground truth with sensor noise {noise}"
     table = Table(title=f"answers given their presuppositions (evidence: {source})", show_lines=True)

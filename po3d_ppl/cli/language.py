@@ -1,4 +1,5 @@
-"""``po3d parse``, ``po3d train parser``, ``po3d eval parser``: the question parser on the command line."""
+"""``po3d parse``, ``po3d train parser`` / ``parser-calibration`` / ``parser-ensemble``, ``po3d eval parser`` /
+``language``: the question parser (shipped as an ensemble of parsers) on the command line."""
 
 from __future__ import annotations
 
@@ -8,22 +9,34 @@ from pathlib import Path
 
 import typer
 
-_PARSER_DIR_HELP = ("Another parser directory, parsing together with --model-dir's as an ensemble (repeat for more; "
-                    "see po3d_ppl/language/seq2seq/ensemble.py).")
-_ENSEMBLE_RULE_HELP = ("With --parser-dir: how the members' program log-probabilities combine: product (their mean) "
-                       "or mixture (the log of the mean probability).")
+_PARSER_DIR_HELP = ("Another parser directory, parsing together with --model-dir's single parser as an ensemble "
+                    "(repeat for more; see po3d_ppl/language/seq2seq/ensemble.py).")
+_ENSEMBLE_RULE_HELP = ("How an ensemble's members' program log-probabilities combine: product (their mean) or mixture "
+                       "(the log of the mean probability). Default: the shipped ensemble's rule; mixture with "
+                       "--parser-dir.")
+_SINGLE_HELP = ("The single parser (manifest entry question_parser) instead of the shipped ensemble (the ablation).")
+_EXTRA_FAMILIES_HELP = ("Add an opt-in family set to the parser corpus (repeatable; known: compare_relate). Default: "
+                        "none, the corpus the shipped single parser was trained on.")
 
 
-def _load_parser(model_dir: Path | None, parser_dirs: list[Path] | None, rule: str, unknown_words: bool = True):
-    """The parser of ``model_dir`` (default: models/), or with ``parser_dirs`` an ensemble of it and them."""
+def _load_parser(model_dir: Path | None, parser_dirs: list[Path] | None, rule: str | None, unknown_words: bool = True,
+                 single: bool = False):
+    """The parser of ``model_dir`` (default: models/): its ensemble where its manifest lists one, else (or with
+    ``single``) its single parser; with ``parser_dirs`` an ensemble of its single parser and theirs."""
     from po3d_ppl.errors import InputError
     from po3d_ppl.language import QuestionParser
-    from po3d_ppl.language.seq2seq.ensemble import RULES, ParserEnsemble
+    from po3d_ppl.language.seq2seq.ensemble import RULES, ParserEnsemble, has_ensemble
 
-    if rule not in RULES:
+    if rule is not None and rule not in RULES:
         raise InputError("--ensemble-rule", f"must be one of {', '.join(RULES)}, got {rule!r}")
     if parser_dirs:
-        return ParserEnsemble.load([model_dir, *parser_dirs], rule, unknown_words=unknown_words)
+        if single:
+            raise InputError("--single-parser", "one parser; not with --parser-dir")
+        return ParserEnsemble.load([model_dir, *parser_dirs], rule or "mixture", unknown_words=unknown_words)
+    if not single and has_ensemble(model_dir):
+        return ParserEnsemble.from_manifest(model_dir, unknown_words=unknown_words, rule=rule)
+    if rule is not None:
+        raise InputError("--ensemble-rule", "the single parser has no ensemble rule")
     loaded = QuestionParser.load(model_dir)
     return loaded if unknown_words else QuestionParser(loaded.trained, unknown_words=False)
 
@@ -35,14 +48,15 @@ def parse(
     as_json: bool = typer.Option(False, "--json", help="Print JSON (text, tokens, public JSON, probabilities)."),
     model_dir: Path = typer.Option(None, "--model-dir", help="Directory with the parser files (default: models/)."),
     parser_dir: list[Path] = typer.Option(None, "--parser-dir", help=_PARSER_DIR_HELP),
-    ensemble_rule: str = typer.Option("mixture", "--ensemble-rule", help=_ENSEMBLE_RULE_HELP),
+    ensemble_rule: str = typer.Option(None, "--ensemble-rule", help=_ENSEMBLE_RULE_HELP),
+    single_parser: bool = typer.Option(False, "--single-parser", help=_SINGLE_HELP),
 ) -> None:
     """Parse a question into its n most probable programs, with probabilities and unknown words."""
     from rich.console import Console
 
     from po3d_ppl.language import program_to_json, program_to_text
 
-    result = _load_parser(model_dir, parser_dir, ensemble_rule).parse(question, n=n, beam=beam)
+    result = _load_parser(model_dir, parser_dir, ensemble_rule, single=single_parser).parse(question, n=n, beam=beam)
     if as_json:
         print(json.dumps({
             "question": question,
@@ -81,6 +95,7 @@ def train_parser_command(
     corpus_seed: int = typer.Option(1, "--corpus-seed", min=0, help="Seed of the training corpus (the validation "
                                                                      "corpus uses seed + 1000)."),
     corpus_val: int = typer.Option(3000, "--corpus-val", min=0, help="Validation questions drawn from the corpus."),
+    extra_families: list[str] = typer.Option(None, "--extra-families", help=_EXTRA_FAMILIES_HELP),
     ngram_buckets: int = typer.Option(4096, "--ngram-buckets", min=0,
                                       help="Character n-gram hash buckets of the subword input (0: words only)."),
     max_minutes: float = typer.Option(None, "--max-minutes", help="Stop training after this many minutes."),
@@ -124,14 +139,19 @@ def train_parser_command(
     registry = default_registry()
     if not data and not corpus:
         raise InputError("--data/--corpus", "give a dataset (--data DIR) or a corpus size (--corpus N)")
+    from po3d_ppl.questions.parser_corpus import CorpusConfig, check_extra_families, generate_corpus
+
+    extra = check_extra_families(extra_families)
+    if extra and not corpus:
+        raise InputError("--extra-families", "adds families to the parser corpus; give --corpus N")
     train, validation, data_manifests = [], [], []
     if corpus:
-        from po3d_ppl.questions.parser_corpus import CorpusConfig, generate_corpus
-
-        train += generate_corpus(corpus, CorpusConfig(seed=corpus_seed))
-        validation += generate_corpus(corpus_val, CorpusConfig(seed=corpus_seed + 1000))
-        data_manifests.append({"seed": corpus_seed, "config": {"corpus": corpus, "corpus_val": corpus_val,
-                                                               "val_seed": corpus_seed + 1000}})
+        train += generate_corpus(corpus, CorpusConfig(seed=corpus_seed, extra_families=extra))
+        validation += generate_corpus(corpus_val, CorpusConfig(seed=corpus_seed + 1000, extra_families=extra))
+        corpus_config = {"corpus": corpus, "corpus_val": corpus_val, "val_seed": corpus_seed + 1000}
+        if extra:
+            corpus_config["extra_families"] = list(extra)
+        data_manifests.append({"seed": corpus_seed, "config": corpus_config})
     for directory in data or ():
         dataset = open_dataset(directory)
         data_manifests.append(dataset.manifest)
@@ -168,7 +188,7 @@ def train_parser_command(
         metrics["val_exact_match"] = max(h["val_exact_match"] for h in history)
     entry = write_entry(MODEL_NAME, files, directory,
                         command=_train_command(data or [], config, out, corpus, corpus_seed, corpus_val,
-                                               max_minutes, threads),
+                                               max_minutes, threads, extra),
                         data_seed=[m.get("seed") for m in data_manifests],
                         data_config=[m.get("config") for m in data_manifests],
                         train_config=dataclasses.asdict(config), metrics=metrics)
@@ -241,6 +261,8 @@ def calibrate_parser_command(
     corpus_seed: int = typer.Option(2001, "--corpus-seed", min=0,
                                     help="Seed of the held-out corpus questions (not a training or test seed)."),
     questions: int = typer.Option(1500, "--questions", min=50, help="Development questions (each perturbed)."),
+    extra_families: list[str] = typer.Option(None, "--extra-families", help=_EXTRA_FAMILIES_HELP + " Give the "
+                                             "parser's training families."),
     threads: int = typer.Option(1, "--threads", min=1, help="torch CPU threads."),
 ) -> None:
     """Fit the parser's confidence calibration on perturbed held-out corpus questions and store it with the model."""
@@ -254,13 +276,15 @@ def calibrate_parser_command(
     from po3d_ppl.language.seq2seq.calibrate import fit_calibration
     from po3d_ppl.language.seq2seq.model_io import MODEL_NAME, VOCABULARY, WEIGHTS
     from po3d_ppl.model_store import models_dir, read_manifest, sha256_file, write_entry
-    from po3d_ppl.questions.parser_corpus import CorpusConfig, generate_corpus
+    from po3d_ppl.questions.parser_corpus import CorpusConfig, check_extra_families, generate_corpus
 
+    extra = check_extra_families(extra_families)
     torch.set_num_threads(threads)
     directory = Path(model_dir) if model_dir is not None else models_dir()
     start = time.perf_counter()
     parser = QuestionParser.load(directory)
-    report = fit_calibration(parser, generate_corpus(questions, CorpusConfig(seed=corpus_seed)), seed=corpus_seed)
+    report = fit_calibration(parser, generate_corpus(questions, CorpusConfig(seed=corpus_seed, extra_families=extra)),
+                             seed=corpus_seed)
     vocab_path = directory / VOCABULARY
     meta = json.loads(vocab_path.read_text())
     meta["calibration"] = dataclasses.asdict(report.calibration)
@@ -269,7 +293,8 @@ def calibrate_parser_command(
     entry.pop("files", None)
     metrics = dict(entry.pop("metrics", {}))
     metrics["calibration"] = {"command": shlex.join(["po3d", "train", "parser-calibration", "--corpus-seed",
-                                                     str(corpus_seed), "--questions", str(questions)]),
+                                                     str(corpus_seed), "--questions", str(questions),
+                                                     *(w for name in extra for w in ("--extra-families", name))]),
                               "questions": report.questions, "dev_accuracy": report.accuracy,
                               "dev_ece_before": report.ece_before, "dev_ece_after": report.ece_after,
                               "seconds": round(time.perf_counter() - start, 1),
@@ -279,6 +304,62 @@ def calibrate_parser_command(
     Console().print(f"calibration {report.calibration} on {report.questions} perturbed questions (top-1 accuracy "
                     f"{report.accuracy:.3f}): ECE {report.ece_before:.4f} -> {report.ece_after:.4f}",
                     markup=False, highlight=False)
+
+
+def train_ensemble_command(
+    member: list[str] = typer.Option(..., "--member", help="A parser's manifest entry in --model-dir (repeat, in "
+                                                          "order; e.g. question_parser)."),
+    rule: str = typer.Option("mixture", "--rule", help="product or mixture (see --ensemble-rule)."),
+    model_dir: Path = typer.Option(None, "--model-dir", help="Directory with the members' files and manifest "
+                                                             "(default: models/)."),
+    corpus_seed: int = typer.Option(2001, "--corpus-seed", min=0,
+                                    help="Seed of the held-out corpus questions (not a training or test seed)."),
+    questions: int = typer.Option(1500, "--questions", min=50, help="Development questions (each perturbed)."),
+    extra_families: list[str] = typer.Option(None, "--extra-families", help=_EXTRA_FAMILIES_HELP),
+    threads: int = typer.Option(1, "--threads", min=1, help="torch CPU threads."),
+) -> None:
+    """Make the shipped parser an ensemble of --member parsers: fit its own confidence calibration on perturbed
+    held-out corpus questions (as parser-calibration does for one parser) and write question_parser_ensemble.json
+    with its manifest entry, which the default loader then uses."""
+    import dataclasses
+    import time
+
+    import torch
+    from rich.console import Console
+
+    from po3d_ppl.errors import InputError
+    from po3d_ppl.language import QuestionParser
+    from po3d_ppl.language.seq2seq.ensemble import ENSEMBLE_NAME, RULES, ParserEnsemble
+    from po3d_ppl.model_store import models_dir, write_entry
+    from po3d_ppl.questions.parser_corpus import CorpusConfig, check_extra_families, generate_corpus
+
+    if rule not in RULES:
+        raise InputError("--rule", f"must be one of {', '.join(RULES)}, got {rule!r}")
+    if len(set(member)) != len(member):
+        raise InputError("--member", f"each member once, got {member}")
+    extra = check_extra_families(extra_families)
+    torch.set_num_threads(threads)
+    directory = Path(model_dir) if model_dir is not None else models_dir()
+    start = time.perf_counter()
+    ensemble = ParserEnsemble([QuestionParser.load(directory, name=name) for name in member], rule)
+    report = ensemble.fit_calibration(generate_corpus(questions, CorpusConfig(seed=corpus_seed, extra_families=extra)),
+                                      seed=corpus_seed)
+    path = ensemble.save(directory, member)
+    words = ["po3d", "train", "parser-ensemble", *(w for name in member for w in ("--member", name)), "--rule", rule,
+             "--corpus-seed", str(corpus_seed), "--questions", str(questions),
+             *(w for name in extra for w in ("--extra-families", name))]
+    if model_dir is not None:
+        words += ["--model-dir", str(model_dir)]
+    config = {"questions": questions, **({"extra_families": list(extra)} if extra else {})}
+    metrics = {"calibration": {"questions": report.questions, "dev_accuracy": report.accuracy,
+                               "dev_ece_before": report.ece_before, "dev_ece_after": report.ece_after,
+                               "seconds": round(time.perf_counter() - start, 1),
+                               **dataclasses.asdict(report.calibration)}}
+    write_entry(ENSEMBLE_NAME, [path], directory, members=list(member), rule=rule, command=shlex.join(words),
+                data_seed=[corpus_seed], data_config=[config], metrics=metrics)
+    Console().print(f"{path}: {len(member)} members, {rule} rule; calibration {report.calibration} on "
+                    f"{report.questions} perturbed questions (top-1 accuracy {report.accuracy:.3f}): ECE "
+                    f"{report.ece_before:.4f} -> {report.ece_after:.4f}", markup=False, highlight=False)
 
 
 def eval_language_command(
@@ -293,9 +374,12 @@ def eval_language_command(
                                        help="--no-unknown-words: the ablation without typo/compound rewriting and "
                                             "subword input for unknown words."),
     beam: int = typer.Option(5, "--beam", min=1),
+    extra_families: list[str] = typer.Option(None, "--extra-families", help="With --corpus-seed: "
+                                             + _EXTRA_FAMILIES_HELP),
     model_dir: Path = typer.Option(None, "--model-dir", help="Directory with the parser files (default: models/)."),
     parser_dir: list[Path] = typer.Option(None, "--parser-dir", help=_PARSER_DIR_HELP),
-    ensemble_rule: str = typer.Option("mixture", "--ensemble-rule", help=_ENSEMBLE_RULE_HELP),
+    ensemble_rule: str = typer.Option(None, "--ensemble-rule", help=_ENSEMBLE_RULE_HELP),
+    single_parser: bool = typer.Option(False, "--single-parser", help=_SINGLE_HELP),
     ensemble_calibration: int = typer.Option(0, "--ensemble-calibration", min=0,
                                              help="With --parser-dir: fit the ensemble's own confidence calibration "
                                                   "on this many perturbed corpus questions of seed 2001 (as `po3d "
@@ -313,14 +397,22 @@ def eval_language_command(
     from po3d_ppl.cli._common import literal
     from po3d_ppl.errors import InputError
     from po3d_ppl.evaluation.calibration import binned_calibration_error
+    from po3d_ppl.language.seq2seq.ensemble import ENSEMBLE_NAME, ParserEnsemble
+    from po3d_ppl.language.seq2seq.model_io import MODEL_NAME
+    from po3d_ppl.questions.parser_corpus import check_extra_families
     from po3d_ppl.questions.parser_eval import SceneQuestion, judge, load_question_set, summarise
 
     if (independent is None) == (corpus_seed is None):
         raise InputError("--independent/--corpus-seed", "give exactly one of them")
-    if record and parser_dir:
-        raise InputError("--record", "records one model's metrics in its manifest; not with --parser-dir")
+    extra = check_extra_families(extra_families)
+    if extra and corpus_seed is None:
+        raise InputError("--extra-families", "adds families to corpus questions; give --corpus-seed")
+    if record and (parser_dir or ensemble_rule or extra):
+        raise InputError("--record", "records the shipped parser's metrics in its manifest entry; not with "
+                                     "--parser-dir, --ensemble-rule or --extra-families")
     torch.set_num_threads(threads)
-    parser = _load_parser(model_dir, parser_dir, ensemble_rule, unknown_words)
+    parser = _load_parser(model_dir, parser_dir, ensemble_rule, unknown_words, single_parser)
+    shipped_ensemble = isinstance(parser, ParserEnsemble) and not parser_dir
     if ensemble_calibration and parser_dir:
         from po3d_ppl.questions.parser_corpus import CorpusConfig, generate_corpus
 
@@ -333,20 +425,25 @@ def eval_language_command(
     else:
         from po3d_ppl.questions.parser_corpus import CorpusConfig, generate_corpus
 
-        corpus = generate_corpus(questions, CorpusConfig(seed=corpus_seed, template_text=template_text))
+        corpus = generate_corpus(questions, CorpusConfig(seed=corpus_seed, template_text=template_text,
+                                                         extra_families=extra))
         records = [SceneQuestion(str(i), e.question, e.program, e.source, e.family, None)
                    for i, e in enumerate(corpus)]
         source = f"corpus seed {corpus_seed} ({template_text:.0%} template texts)"
+        if extra:
+            source += f" with {', '.join(extra)}"
     judged = judge(records, lambda q: parser.parse(q, n=1, beam=beam))
     report = summarise(judged)
     report["ece"] = binned_calibration_error([j.confidence for j in judged], [j.correct for j in judged])
     report.update(source=source, unknown_words=unknown_words, beam=beam)
     if parser_dir:
-        report["ensemble"] = {"members": [str(model_dir or "models/"), *map(str, parser_dir)], "rule": ensemble_rule,
+        report["ensemble"] = {"members": [str(model_dir or "models/"), *map(str, parser_dir)], "rule": parser.rule,
                               "calibration_questions": ensemble_calibration}
+    elif shipped_ensemble:
+        report["ensemble"] = {"members": parser.names, "rule": parser.rule}
     title = f"question parser on {source}" + ("" if unknown_words else " (no unknown-word mechanism)")
-    if parser_dir:
-        title += f" (ensemble of {1 + len(parser_dir)}, {ensemble_rule} rule)"
+    if isinstance(parser, ParserEnsemble):
+        title += f" (ensemble of {len(parser.members)}, {parser.rule} rule)"
     table = Table(title=literal(title),
                   caption="correct: exact match or the same answer on the record's scene")
     for col in ("family group", "questions", "correct", "exact", "mean confidence"):
@@ -363,7 +460,6 @@ def eval_language_command(
         json_out.parent.mkdir(parents=True, exist_ok=True)
         json_out.write_text(json.dumps(report, indent=2) + "\n")
     if record:
-        from po3d_ppl.language.seq2seq.model_io import MODEL_NAME
         from po3d_ppl.model_store import models_dir, record_metrics
 
         if independent is not None:  # the held-out set records as "independent", any other set by its folder
@@ -376,17 +472,20 @@ def eval_language_command(
         summary["per_group"] = {g: {k: r[k] for k in ("count", "accuracy", "exact_match")}
                                 for g, r in report["per_group"].items()}
         summary["source"] = source
-        record_metrics(MODEL_NAME, key, summary, model_dir or models_dir())
+        record_metrics(ENSEMBLE_NAME if shipped_ensemble else MODEL_NAME, key, summary, model_dir or models_dir())
 
 
 def _train_command(data: list[Path], config, out: Path | None, corpus: int = 0, corpus_seed: int = 1,
-                   corpus_val: int = 3000, max_minutes: float | None = None, threads: int = 1) -> str:
+                   corpus_val: int = 3000, max_minutes: float | None = None, threads: int = 1,
+                   extra_families: tuple[str, ...] = ()) -> str:
     """The training command with every setting spelled out (defaults included), to reproduce the weights."""
     words = ["po3d", "train", "parser"]
     for directory in data:
         words += ["--data", str(directory)]
     if corpus:
         words += ["--corpus", str(corpus), "--corpus-seed", str(corpus_seed), "--corpus-val", str(corpus_val)]
+        for name in extra_families:
+            words += ["--extra-families", name]
     words += ["--ngram-buckets", str(config.ngram_buckets), "--word-dropout", str(config.word_dropout),
               "--threads", str(threads)]
     if max_minutes is not None:
@@ -406,5 +505,6 @@ def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) ->
     app.command("parse")(parse)
     train_app.command("parser")(train_parser_command)
     train_app.command("parser-calibration")(calibrate_parser_command)
+    train_app.command("parser-ensemble")(train_ensemble_command)
     eval_app.command("parser")(eval_parser_command)
     eval_app.command("language")(eval_language_command)

@@ -6,7 +6,8 @@
 >>> program_to_tokens(program)
 ['query_color', 'unique', 'filter_shape[car]', 'filter_color[red]', 'scene']
 
-``QuestionParser`` (the seq2seq model) is imported lazily because it needs torch.
+``QuestionParser`` (the seq2seq model) and ``load_question_parser`` (the shipped parser: an ensemble of
+``QuestionParser`` members) are imported lazily because they need torch.
 """
 
 from po3d_ppl.language.ast import Node, Program, Span
@@ -42,6 +43,7 @@ __all__ = [
     "UnknownProgramNameError",
     "as_typed_program",
     "check_program",
+    "load_question_parser",
     "parse_program",
     "program_from_json",
     "program_from_tokens",
@@ -56,4 +58,8 @@ def __getattr__(name: str):
         from po3d_ppl.language.seq2seq.model_io import QuestionParser
 
         return QuestionParser
+    if name == "load_question_parser":
+        from po3d_ppl.language.seq2seq.ensemble import load_question_parser
+
+        return load_question_parser
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -24,30 +24,50 @@ evaluation and the CLI work unchanged. Words, unknown words and corrections are 
 confidence is the mean of the members' calibrations applied to the combined top probability (each with its own
 unknown-word and rewrite counts; with one member, that member's confidence), unless the ensemble has a
 calibration of its own (:meth:`ParserEnsemble.fit_calibration`, fitted as a single parser's is).
+
+The shipped parser is an ensemble: ``models/manifest.json`` lists it as ``question_parser_ensemble`` (its members'
+manifest entries, in order, and the file ``question_parser_ensemble.json`` holding them, the rule and the
+ensemble's calibration; written by ``po3d train parser-ensemble``). :func:`load_question_parser` loads it, every
+member file checked against its sha256, or the single parser where a directory lists no ensemble.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
 import torch
 
-from po3d_ppl.errors import InputError
+from po3d_ppl.errors import InputError, ModelFileError
 from po3d_ppl.language.ast import Program
 from po3d_ppl.language.satisfiable import unsatisfiable_node
 from po3d_ppl.language.seq2seq.calibrate import CalibrationReport, fit_calibration
 from po3d_ppl.language.seq2seq.data import Example
 from po3d_ppl.language.seq2seq.decode import beam_search
-from po3d_ppl.language.seq2seq.model_io import Calibration, ParsedProgram, QuestionParse, QuestionParser
+from po3d_ppl.language.seq2seq.model_io import (
+    MODEL_NAME,
+    Calibration,
+    ParsedProgram,
+    QuestionParse,
+    QuestionParser,
+)
 from po3d_ppl.language.seq2seq.vocab import tokenize
 from po3d_ppl.language.tokens import program_to_tokens
 from po3d_ppl.language.typecheck import check_program
 
 Rule = Literal["product", "mixture"]
 RULES: tuple[str, ...] = ("product", "mixture")
+#: The shipped ensemble's manifest entry and its one file (members, rule, calibration).
+ENSEMBLE_NAME = "question_parser_ensemble"
+ENSEMBLE_FILE = f"{ENSEMBLE_NAME}.json"
+ENSEMBLE_FORMAT = 1
+_RESTORE = ("restore it with `git checkout models/`, or retrain it with the commands in its entry of "
+            "models/manifest.json")
 
 
 @torch.inference_mode()
@@ -88,9 +108,10 @@ def sequence_log_probs(member: QuestionParser, words: torch.Tensor, ngrams: torc
         allowed[:, 0] = True  # rows with nothing to score here (finished or dead) keep a finite softmax
         for j in running:
             allowed[j] = automaton.allowed(states[j])
-        log_probs = torch.log_softmax(logits.masked_fill(~torch.from_numpy(allowed), float("-inf")), dim=-1)
+        mask = torch.from_numpy(allowed).to(logits.device)
+        log_probs = torch.log_softmax(logits.masked_fill(~mask, float("-inf")), dim=-1)
         tokens = [sequences[j][t] if t < len(sequences[j]) else 0 for j in range(k)]
-        picked = log_probs.gather(1, torch.tensor(tokens)[:, None])[:, 0].tolist()
+        picked = log_probs.gather(1, torch.tensor(tokens, device=logits.device)[:, None])[:, 0].tolist()
         for j in running:
             token = tokens[j]
             if not allowed[j, token] or states[j].complete:
@@ -120,8 +141,9 @@ class ParserEnsemble:
     """Question -> n-best programs from several :class:`QuestionParser` members (see the module docstring)."""
 
     def __init__(self, members: Sequence[QuestionParser], rule: Rule = "mixture", propose: int | None = None,
-                 calibration: Calibration | None = None):
-        """``propose``: how many programs each member proposes (default ``max(n, beam)`` of the call)."""
+                 calibration: Calibration | None = None, names: Sequence[str] | None = None):
+        """``propose``: how many programs each member proposes (default ``max(n, beam)`` of the call); ``names``:
+        the members' manifest entries, when loaded from one (:meth:`from_manifest`)."""
         if not members:
             raise InputError("members", "an ensemble needs at least one parser")
         if rule not in RULES:
@@ -131,6 +153,7 @@ class ParserEnsemble:
         self.propose = propose
         self.calibration = calibration
         self.registry = self.members[0].registry
+        self.names = list(names) if names is not None else None
 
     @classmethod
     def load(cls, directories: Sequence[str | None], rule: Rule = "mixture", device: str | torch.device = "cpu",
@@ -142,6 +165,47 @@ class ParserEnsemble:
             members.append(loaded if unknown_words else QuestionParser(loaded.trained, device=device,
                                                                        unknown_words=False))
         return cls(members, rule, **options)
+
+    @classmethod
+    def from_manifest(cls, directory: str | Path | None = None, device: str | torch.device = "cpu",
+                      unknown_words: bool = True, rule: Rule | None = None) -> ParserEnsemble:
+        """The ensemble the manifest of ``directory`` (default: models/) lists as ``question_parser_ensemble``:
+        its file and every member's files checked against their sha256 (a missing or changed file is a
+        :class:`~po3d_ppl.errors.ModelFileError` naming it). ``rule`` overrides the stored rule (an ablation; the
+        stored calibration was fitted for the stored rule)."""
+        from po3d_ppl.model_store import model_files, models_dir, read_manifest
+
+        directory = Path(directory) if directory is not None else models_dir()
+        path = model_files(ENSEMBLE_NAME, directory, _RESTORE)[ENSEMBLE_FILE]
+        try:
+            spec = json.loads(path.read_text())
+            if spec.get("format") != ENSEMBLE_FORMAT:
+                raise ValueError(f"format {spec.get('format')!r}, expected {ENSEMBLE_FORMAT}")
+            names, stored_rule = [str(m) for m in spec["members"]], spec["rule"]
+            calibration = Calibration(**spec["calibration"]) if spec.get("calibration") else None
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise ModelFileError(f"cannot read the parser ensemble {path} ({exc}); {_RESTORE}") from None
+        listed = read_manifest(directory)[ENSEMBLE_NAME].get("members")
+        if listed is not None and list(listed) != names:
+            raise ModelFileError(f"{path} lists the members {names}, its manifest entry {list(listed)}; {_RESTORE}")
+        members = []
+        for name in names:
+            loaded = QuestionParser.load(directory, device=device, name=name, retrain_hint=_RESTORE)
+            members.append(loaded if unknown_words else QuestionParser(loaded.trained, device=device,
+                                                                       unknown_words=False))
+        return cls(members, rule or stored_rule, calibration=calibration, names=names)
+
+    def save(self, directory: str | Path, names: Sequence[str]) -> Path:
+        """Write ``question_parser_ensemble.json`` (the members' manifest entry names ``names``, the rule and the
+        calibration) into ``directory``; the caller records it in the manifest."""
+        if len(names) != len(self.members):
+            raise InputError("names", f"{len(self.members)} members, {len(names)} names")
+        path = Path(directory) / ENSEMBLE_FILE
+        path.write_text(json.dumps({"format": ENSEMBLE_FORMAT, "members": list(names), "rule": self.rule,
+                                    "calibration": None if self.calibration is None
+                                    else dataclasses.asdict(self.calibration)}, indent=1) + "\n")
+        path.chmod(0o644)
+        return path
 
     def parse(self, question: str, n: int = 1, beam: int = 5) -> QuestionParse:
         """The ``n`` most probable programs for ``question`` under the combined scores (beam ``max(beam, n)``
@@ -198,3 +262,22 @@ class ParserEnsemble:
             return self.calibration(probability, len(unknown), len(corrections))
         return sum(member.calibration(probability, len(unknown), len(corrections))
                    for member, (_, _, _, corrections, unknown) in zip(self.members, encoded)) / len(self.members)
+
+
+def has_ensemble(directory: str | Path | None = None) -> bool:
+    """Whether the manifest of ``directory`` (default: models/) lists a parser ensemble."""
+    from po3d_ppl.model_store import read_manifest
+
+    return ENSEMBLE_NAME in read_manifest(Path(directory) if directory is not None else None)
+
+
+def load_question_parser(directory: str | Path | None = None, *, single: bool = False,
+                         device: str | torch.device = "cpu", unknown_words: bool = True
+                         ) -> ParserEnsemble | QuestionParser:
+    """The shipped question parser: the ensemble the manifest of ``directory`` (default: models/) lists, or, where
+    it lists none or with ``single=True`` (the ablation), the single parser (manifest entry ``question_parser``).
+    ``unknown_words=False`` switches the unknown-word mechanism off in every member (the ablation)."""
+    if not single and has_ensemble(directory):
+        return ParserEnsemble.from_manifest(directory, device=device, unknown_words=unknown_words)
+    loaded = QuestionParser.load(directory, device=device, name=MODEL_NAME)
+    return loaded if unknown_words else QuestionParser(loaded.trained, device=device, unknown_words=False)

@@ -147,22 +147,30 @@ class QuestionParser:
 
     @classmethod
     def load(cls, directory: Path | str | None = None, registry: OperationRegistry | None = None,
-             device: str | torch.device = "cpu") -> QuestionParser:
-        """Load the shipped parser (or the one in ``directory``), verifying the files against the manifest."""
+             device: str | torch.device = "cpu", name: str = MODEL_NAME,
+             retrain_hint: str = RETRAIN) -> QuestionParser:
+        """Load the shipped single parser (or the one in ``directory``), verifying the files against the manifest.
+        ``name``: another parser's manifest entry there (an ensemble member: its ``NAME.safetensors`` and
+        ``NAME.vocab.json``). The shipped default, an ensemble, is :func:`~po3d_ppl.language.load_question_parser`."""
         from po3d_ppl.model_store import model_files, models_dir
 
         directory = Path(directory) if directory is not None else models_dir()
-        files = model_files(MODEL_NAME, directory, RETRAIN)
-        weights, vocab_path = files[WEIGHTS], files[VOCABULARY]
+        files = model_files(name, directory, retrain_hint)
+        weights, vocab_path = files.get(f"{name}.safetensors"), files.get(f"{name}.vocab.json")
+        if weights is None or vocab_path is None:
+            raise ModelFileError(f"model {name!r} in {directory} should list {name}.safetensors and "
+                                 f"{name}.vocab.json, its manifest entry lists {', '.join(files)}; {retrain_hint}")
         try:
             meta = json.loads(vocab_path.read_text())
             if meta.get("format") not in READABLE_FORMATS:
-                raise ModelFileError(f"{vocab_path}: format {meta.get('format')!r}, expected {FORMAT}; {RETRAIN}")
+                raise ModelFileError(f"{vocab_path}: format {meta.get('format')!r}, expected {FORMAT}; "
+                                     f"{retrain_hint}")
             config = ParserConfig(**meta["config"])
             model = Seq2SeqParser(config)
             model.load_state_dict(load_file(str(weights)))
         except (OSError, ValueError, KeyError, TypeError, RuntimeError) as exc:
-            raise ModelFileError(f"cannot load the question parser from {directory} ({exc}); {RETRAIN}") from None
+            raise ModelFileError(f"cannot load the question parser {name!r} from {directory} ({exc}); "
+                                 f"{retrain_hint}") from None
         trained = Trained(model, WordVocabulary(tuple(meta["words"]), tuple(meta.get("counts", ()))),
                           TargetVocabulary(tuple(meta["operations"]), tuple(meta["values"])),
                           tuple(meta["root_types"]), int(meta["max_len"]))
