@@ -42,3 +42,13 @@ def test_cuda_answers_equal_cpu_answers(evidences, method):
             assert abs(a.invalid - b.invalid) < 1e-9, (program, method)
             for answer in set(a.probs) | set(b.probs):
                 assert abs(a.probs.get(answer, 0.0) - b.probs.get(answer, 0.0)) < 1e-9, (program, method, answer)
+
+
+def test_the_shipped_parser_ensemble_parses_on_cuda_as_on_the_cpu():
+    from po3d_ppl.language import load_question_parser
+
+    question = "Are there more cars right of the blue bus than left of it?"
+    cpu, gpu = load_question_parser(), load_question_parser(device="cuda")
+    a, b = cpu.parse(question, n=3), gpu.parse(question, n=3)
+    assert [c.tokens for c in a.candidates] == [c.tokens for c in b.candidates]
+    assert [c.log_prob for c in a.candidates] == pytest.approx([c.log_prob for c in b.candidates], abs=1e-4)

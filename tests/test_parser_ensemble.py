@@ -92,3 +92,84 @@ def test_cli_parses_with_an_ensemble(shipped):
     assert [p["tokens"] for p in programs] == [c.tokens for c in shipped.parse(question, n=2).candidates]
     bad = CliRunner().invoke(app, ["parse", question, "--parser-dir", str(models_dir()), "--ensemble-rule", "vote"])
     assert bad.exit_code != 0
+
+
+# ----- the shipped ensemble (models/manifest.json: question_parser_ensemble) -----------------------------------------
+
+SHIPPED_MEMBERS = ["question_parser", "question_parser_cr_seed0", "question_parser_cr_seed1"]
+
+
+@pytest.fixture(scope="module")
+def shipped_ensemble(torch_one_thread):
+    from po3d_ppl.language import load_question_parser
+
+    return load_question_parser()
+
+
+def test_the_default_loader_returns_the_shipped_ensemble(shipped_ensemble, shipped):
+    from po3d_ppl.language import load_question_parser
+
+    assert isinstance(shipped_ensemble, ParserEnsemble)
+    assert shipped_ensemble.names == SHIPPED_MEMBERS and shipped_ensemble.rule == "mixture"
+    assert shipped_ensemble.calibration is not None  # its own, fitted by po3d train parser-ensemble
+    single = load_question_parser(single=True)
+    assert isinstance(single, QuestionParser)
+    assert single.parse(QUESTIONS[0]).best.tokens == shipped.parse(QUESTIONS[0]).best.tokens
+    parse = shipped_ensemble.parse(QUESTIONS[0], n=3)
+    assert parse.best.tokens == shipped.parse(QUESTIONS[0]).best.tokens
+    assert 0 < sum(c.probability for c in parse.candidates) <= 1 + 1e-6 and 0 < parse.confidence < 1
+    bare = load_question_parser(unknown_words=False)
+    assert all(not m.unknown_words for m in bare.members)
+
+
+def _copy_parsers(tmp_path):
+    """models/'s parser files and manifest in ``tmp_path`` (the perception entries' files are not needed)."""
+    import shutil
+
+    directory = tmp_path / "models"
+    directory.mkdir()
+    for path in models_dir().iterdir():
+        if path.name == "manifest.json" or path.name.startswith("question_parser"):
+            shutil.copyfile(path, directory / path.name)
+    return directory
+
+
+def test_a_corrupt_or_missing_member_is_a_typed_error_naming_the_file(tmp_path, torch_one_thread):
+    from po3d_ppl.errors import ModelFileError
+    from po3d_ppl.language import load_question_parser
+
+    directory = _copy_parsers(tmp_path)
+    weights = directory / "question_parser_cr_seed1.safetensors"
+    data = bytearray(weights.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    weights.write_bytes(bytes(data))
+    with pytest.raises(ModelFileError, match=r"question_parser_cr_seed1\.safetensors does not match its sha256"):
+        load_question_parser(directory)
+    assert isinstance(load_question_parser(directory, single=True), QuestionParser)  # the ablation still loads
+    (directory / "question_parser_cr_seed0.vocab.json").unlink()
+    with pytest.raises(ModelFileError, match=r"question_parser_cr_seed0\.vocab\.json is missing"):
+        load_question_parser(directory)
+    (directory / "question_parser_ensemble.json").write_text("{}")
+    with pytest.raises(ModelFileError, match=r"question_parser_ensemble\.json"):
+        load_question_parser(directory)
+
+
+def test_a_directory_without_an_ensemble_loads_its_single_parser(tmp_path, torch_one_thread):
+    from po3d_ppl.language import load_question_parser
+    from po3d_ppl.model_store import read_manifest
+
+    directory = _copy_parsers(tmp_path)
+    manifest = read_manifest(directory)
+    del manifest["question_parser_ensemble"]
+    (directory / "manifest.json").write_text(json.dumps(manifest))
+    assert isinstance(load_question_parser(directory), QuestionParser)
+
+
+def test_cli_parses_with_the_shipped_ensemble_or_the_single_parser(shipped_ensemble, shipped):
+    question = QUESTIONS[1]
+    default = CliRunner().invoke(app, ["parse", question, "--n", "3", "--json"])
+    single = CliRunner().invoke(app, ["parse", question, "--n", "3", "--json", "--single-parser"])
+    assert default.exit_code == 0 and single.exit_code == 0, default.output + single.output
+    assert json.loads(default.output)["confidence"] == pytest.approx(shipped_ensemble.parse(question, n=3).confidence)
+    assert [p["tokens"] for p in json.loads(single.output)["programs"]] == [
+        c.tokens for c in shipped.parse(question, n=3).candidates]
