@@ -242,9 +242,10 @@ def recalibrated(record: QuestionRecord, calibration) -> Prediction:
 
 
 def _default_parser():
-    from po3d_ppl.language import QuestionParser
+    """The shipped question parser (the ensemble when the manifest lists one), as ``answer()`` uses it."""
+    from po3d_ppl.language.seq2seq.ensemble import load_question_parser
 
-    return QuestionParser.load()
+    return load_question_parser()
 
 
 def _answer(item: QuestionItem, scene, reasoner, methods, once, budget, timings, failures,
