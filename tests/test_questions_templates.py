@@ -246,6 +246,40 @@ def test_opt_in_families_leave_the_default_corpus_unchanged():
         CorpusConfig(extra_families=("compare_relation",))
 
 
+def test_wording2_is_opt_in_and_says_the_new_constructions():
+    """``wording2`` (the realiser's second round of phrasings, from reading dev 2's misses) adds no families and
+    leaves the default and compare_relate corpora unchanged (test above); with it, questions come out indirect
+    ("Tell me whether ..."), same-attribute counts and existence are said of the referent, and two counts around
+    one referent may introduce it first. The digest pins the corpus of the member trained with
+    ``--extra-families compare_relate --extra-families wording2``."""
+    from po3d_ppl.language import parse_program
+    from po3d_ppl.questions.parser_corpus import corpus_families
+    from po3d_ppl.questions.realise import Realiser
+
+    assert len(corpus_families(("wording2",))) == len(corpus_families())
+    assert _corpus_digest(1000, extra_families=("compare_relate", "wording2")) == (
+        "605f59640201179b5cc26663fd8169c18dc4bbfb3485052ab6d991da27b43fc5")
+
+    def texts(program: str, n: int = 300) -> list[str]:
+        p = parse_program(program)
+        return [Realiser(np.random.default_rng(seed), compare_around=True, wording=True).question(p)
+                for seed in range(n)]
+
+    compare = texts("equal_size(scene() | filter_shape[truck] | unique | query_size, "
+                    "scene() | filter_color[red] | unique | query_size)")
+    indirect = [t for t in compare if t.startswith(("Tell me if", "Tell me whether", "I want to know if",
+                                                    "Check whether", "Say whether", "Let me know if"))]
+    assert indirect and all(" is " in t or " are " in t or " have " in t or " has " in t or " share" in t
+                            or " match" in t for t in indirect), indirect
+    exist = texts("exist(scene() | filter_shape[truck] | unique | same_color | filter_shape[bus])")
+    assert any(t.startswith("Does the") and "with any bus" in t for t in exist), exist
+    count = texts("count(scene() | filter_shape[truck] | unique | same_color)")
+    assert any("as how many" in t for t in count) and any(" besides " in t for t in count), count
+    around = texts("greater_than(count(scene() | filter_color[blue] | filter_shape[car] | unique | relate[right]), "
+                   "count(scene() | filter_color[blue] | filter_shape[car] | unique | relate[left]))")
+    assert any(t.startswith(("Looking at the", "Does the")) and t.count("blue") == 1 for t in around), around
+
+
 def test_clevr_template_files_are_current():
     """The JSON files are what ``templates/clevr/build.py`` writes."""
     from importlib import resources

@@ -15,7 +15,7 @@ _ENSEMBLE_RULE_HELP = ("How an ensemble's members' program log-probabilities com
                        "(the log of the mean probability). Default: the shipped ensemble's rule; mixture with "
                        "--parser-dir.")
 _SINGLE_HELP = ("The single parser (manifest entry question_parser) instead of the shipped ensemble (the ablation).")
-_EXTRA_FAMILIES_HELP = ("Add an opt-in family set to the parser corpus (repeatable; known: compare_relate). Default: "
+_EXTRA_FAMILIES_HELP = ("Add an opt-in family set to the parser corpus (repeatable; known: compare_relate, wording2). Default: "
                         "none, the corpus the shipped single parser was trained on.")
 
 

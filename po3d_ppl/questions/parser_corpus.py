@@ -18,7 +18,8 @@ Opt-in family sets (:data:`OPT_IN_FAMILIES`; ``CorpusConfig.extra_families``, ``
 --extra-families NAME``) join the corpus only when named, so the default corpus stays what the shipped parser was
 trained on: ``compare_relate`` (``templates/extra/compare_relate.json``, six integer comparisons of two counts
 around one referent named once, with the realiser's "... than left of it" wording) trained the ensemble's second
-and third members (docs/language.md). A named set's files take the place they sort to among their folder's files,
+and third members (docs/language.md); ``wording2`` (no families of its own: the realiser's second round of
+phrasings, ``Realiser(wording=True)``) came from reading dev 2's misses. A named set's files take the place they sort to among their folder's files,
 as when they were part of the default corpus, so those members' corpus is reproduced item for item.
 """
 
@@ -57,10 +58,14 @@ _PARTS_OF_CATEGORY = {
 }
 
 
-#: Family sets outside the default corpus, by name: their template files (``folder/file.json``) and whether the
-#: realiser also says two counts around one referent with the referent named once (``Realiser.compare_around``).
+#: Family sets outside the default corpus, by name: their template files (``folder/file.json``), whether the
+#: realiser also says two counts around one referent with the referent named once (``Realiser.compare_around``)
+#: and whether it uses its second round of phrasings (``Realiser.wording``: indirect questions, same-attribute
+#: counts said of the referent, the referent of two counts introduced first, "stand / sit / located", more shape
+#: names; no template files of its own).
 OPT_IN_FAMILIES: dict[str, dict] = {
-    "compare_relate": {"files": ("extra/compare_relate.json",), "compare_around": True},
+    "compare_relate": {"files": ("extra/compare_relate.json",), "compare_around": True, "wording": False},
+    "wording2": {"files": (), "compare_around": False, "wording": True},
 }
 
 
@@ -257,7 +262,8 @@ def iter_corpus(count: int, config: CorpusConfig = CorpusConfig(),
                 families: list[Template] | None = None) -> Iterator[Example]:
     families = families if families is not None else corpus_families(config.extra_families)
     rng = np.random.default_rng(config.seed)
-    realiser = Realiser(rng, compare_around=any(OPT_IN_FAMILIES[n]["compare_around"] for n in config.extra_families))
+    realiser = Realiser(rng, compare_around=any(OPT_IN_FAMILIES[n]["compare_around"] for n in config.extra_families),
+                        wording=any(OPT_IN_FAMILIES[n]["wording"] for n in config.extra_families))
     made = 0
     while made < count:
         template = families[int(rng.integers(len(families)))]

@@ -75,13 +75,22 @@ _ATTR_NAME = {"size": ("size",), "color": ("color", "colour"), "material": ("mat
 class Realiser:
     """Writes questions for programs; one instance per random stream."""
 
-    def __init__(self, rng: np.random.Generator, compare_around: bool = False):
+    def __init__(self, rng: np.random.Generator, compare_around: bool = False, wording: bool = False):
         """``compare_around``: say two counts taken around one referent with the referent named once ("Are there
         more cars right of the bus than left of it?"); part of the opt-in ``compare_relate`` corpus families
         (:data:`po3d_ppl.questions.parser_corpus.OPT_IN_FAMILIES`), off by default so the default corpus is
-        unchanged."""
+        unchanged. ``wording``: the opt-in ``wording2`` phrasings (off by default, same reason): indirect
+        questions ("Tell me whether the car is red.", "I'd like to know what colour the bus has."), counts and
+        existence around a ``same_*`` referent said of the referent ("Does the car share its colour with any
+        bus?", "The car has the same size as how many other things?", "How many buses besides the car have its
+        colour?"), two counts around one referent introduced first ("Looking at the bus, are there more cars
+        behind it than left of it?", "Does the bus have fewer cars behind it than left of it?"), "stand / sit /
+        located" with spatial relations, and a few more everyday shape names. Every random draw it adds happens
+        only when it is on, so the default stream is untouched."""
         self.rng = rng
         self.compare_around = compare_around
+        self.wording = wording
+        self._said: list[str] = []
 
     # ----- choices ---------------------------------------------------------------------------------------------
     def pick(self, options):
@@ -93,8 +102,89 @@ class Realiser:
     # ----- entry -----------------------------------------------------------------------------------------------
     def question(self, program: Program) -> str:
         self.program = program
+        self._said = []
         text = self._top(program[len(program) - 1])
+        if self.wording and self.chance(0.15):
+            text = self._embedded(text) or text
         return _finish(text)
+
+    # ----- indirect questions (wording2) -----------------------------------------------------------------------
+    def _subject(self, rest: str) -> str | None:
+        """The noun phrase (one this question said, or two joined by "and") that ``rest`` starts with."""
+        said = sorted(set(self._said), key=len, reverse=True)
+        m = re.match(r"the (?:total )?(?:number|count|amount|quantity|size|colou?r|material|shape|type) of ", rest)
+        if m:  # "the number of cars", "the colour of the bus and the car"
+            inner = self._subject(rest[m.end():])
+            return None if inner is None else m.group(0) + inner
+        for a in said:
+            if rest.startswith(a + " and "):
+                tail = rest[len(a) + 5:]
+                for b in said:
+                    if tail.startswith(b + " "):
+                        return f"{a} and {b}"
+        for a in said:
+            if rest.startswith(a + " "):
+                return a
+        return None
+
+    def _embedded(self, text: str) -> str | None:
+        """``text`` (a direct question) as an indirect one: "Is the car red?" -> "Tell me whether the car is
+        red.", "What colour does the bus have?" -> "I'd like to know what colour the bus has."; None where the
+        subject cannot be found (the direct question is kept)."""
+        t = re.sub(r"\s+", " ", text).strip()
+        if not t.endswith("?") or "; " in t or ". " in t or ", " in t:
+            return None
+        body = t[:-1]
+        first, _, rest = body.partition(" ")
+        aux = first.lower()
+        clause = None
+        if aux in ("is", "are") and rest.startswith("there "):
+            clause = f"there {aux} {rest[6:]}"
+        elif aux in ("is", "are", "do", "does"):
+            subject = self._subject(rest)
+            if subject is None:
+                return None
+            tail = rest[len(subject):].strip()
+            if aux in ("is", "are"):
+                clause = f"{subject} {aux} {tail}"
+            else:
+                verb, _, obj = tail.partition(" ")
+                clause = f"{subject} {_third_person(verb) if aux == 'does' else verb} {obj}".strip()
+        elif aux == "can" and rest.startswith("you see "):
+            clause = "you can " + rest[4:]
+        if clause is not None:
+            lead = self.pick(("Tell me if", "Tell me whether", "Tell me whether or not", "Can you tell me if",
+                              "Can you tell me whether", "I want to know if", "I'd like to know whether",
+                              "Let me know if", "Please tell me whether", "Check whether", "Say whether"))
+            return f"{lead} {clause}{'?' if lead.startswith('Can') else '.'}"
+        if body.lower().startswith(("can you tell", "tell me")):
+            return None
+        low = body[:1].lower() + body[1:]
+        lead_wh = None
+        m = re.match(r"(?:what is|what's|tell me|identify) (the \w+ of .+)$", low)
+        if m:
+            clause = m.group(1)
+            if lead_wh is None:
+                lead_wh = self.pick(("I want to know", "I'd like to know", "Tell me", "Please tell me",
+                                     "Can you tell me", "Let me know", "I need to know"))
+        elif low.startswith("how many ") and not re.search(r" (does|do|can|is|has) ", low):
+            clause = re.sub(r" are there$", " there are", low)
+        else:
+            for s in sorted(set(self._said), key=len, reverse=True):
+                for ending, replace in ((f" is {s}", f" {s} is"), (f" does {s} have", f" {s} has"),
+                                        (f" is {s} made of", f" {s} is made of"),
+                                        (f" is {s} made from", f" {s} is made from")):
+                    head = low.removesuffix(ending)
+                    if head != low and re.fullmatch(r"(what|which|how) ?\w*", head):
+                        clause = head + replace
+                        break
+                if clause is not None:
+                    break
+        if clause is None:
+            return None
+        lead = lead_wh or self.pick(("I want to know", "I'd like to know", "Tell me", "Please tell me",
+                                     "Can you tell me", "I wonder", "Let me know", "I need to know"))
+        return f"{lead} {clause}{'?' if lead.startswith('Can') else '.'}"
 
     def _node(self, index: int) -> Node:
         return self.program[index]
@@ -190,6 +280,11 @@ class Realiser:
         raise Unrealisable(f"no phrasing for {f} as an object set")
 
     def _bare_or_clause(self, words: str, ref: str) -> tuple[str, str]:
+        if self.wording and self.chance(0.15):  # "that stands behind the car", "located left of the bus"
+            verb = self.pick((("that stands", "that stand"), ("that sits", "that sit"), ("standing",) * 2,
+                              ("sitting",) * 2, ("located",) * 2, ("positioned",) * 2, ("placed",) * 2,
+                              ("that is located", "that are located"), ("that is standing", "that are standing")))
+            return (f"{verb[0]} {words} {ref}", f"{verb[1]} {words} {ref}")
         if self.chance(0.7):
             return (f"{words} {ref}", f"{words} {ref}")
         return (f"that is {words} {ref}", f"that are {words} {ref}")
@@ -325,10 +420,17 @@ class Realiser:
         form = self.pick(lx.shape_forms(d.shape)) if self.chance(0.6) else lx.shape_forms(d.shape)[0]
         if d.shape in _SHAPE_EXTRA and self.chance(0.08):
             form = self.pick(_SHAPE_EXTRA[d.shape])
+        if self.wording and d.shape in _SHAPE_EXTRA_2 and self.chance(0.1):
+            form = self.pick(_SHAPE_EXTRA_2[d.shape])
         return self.pick(lx.plural_forms(form)) if plural else form
 
     def np(self, d: _Obj, kind: str) -> str:
         """``kind``: "def" (the ...), "indef" (a ...), "plural" (... things)."""
+        said = self._np(d, kind)
+        self._said.append(said)
+        return said
+
+    def _np(self, d: _Obj, kind: str) -> str:
         if d.hoist:
             return "it" if kind != "plural" else "them"
         plural = kind == "plural"
@@ -393,6 +495,11 @@ class Realiser:
         return [" and ".join(out)]
 
     def part_np(self, p: _Part, kind: str) -> str:
+        said = self._part_np(p, kind)
+        self._said.append(said)
+        return said
+
+    def _part_np(self, p: _Part, kind: str) -> str:
         adjectives = self._part_adjectives(p)
         owner_shape = p.owner.shape if p.owner is not None else None
         noun = self._part_noun(p, owner_shape)
@@ -686,6 +793,8 @@ class Realiser:
         if target.function in ("partfilter_partname", "partfilter_color", "partfilter_material", "partfilter_size",
                                "partfilter_occludee", "object2part", "object2part_all", "relate_occluding_part"):
             return self._count_exist_parts(self.part(target), count)
+        if self.wording and _same_below(self.program, target) is not None and self.chance(0.4):
+            return self._same_count_exist(target, count)
         d = self.obj(target)
         if d.union is not None:
             a, b = d.union
@@ -764,6 +873,13 @@ class Realiser:
                                       f"What's the number of {x}?", f"How many {x} exist?",
                                       f"How many {x} are present?", f"What is the total number of {x}?",
                                       f"How many {x} are shown?", f"Give the number of {x}."))
+        if (self.wording and predicative is not None and predicative[1].split()[0] in ("stand", "sit")
+                and self.chance(0.6)):  # "Does anything stand behind the car?"
+            rest = _strip_posts(d)
+            some = (self.pick(("anything", "something", "any object", "any thing", "any vehicle"))
+                    if not (rest.attrs or rest.shape or rest.posts or rest.occluded or rest.other)
+                    else "any " + self.np(rest, "indef").removeprefix("a ").removeprefix("an "))
+            return intro + f"Does {some} {predicative[1]}?"
         if predicative is not None and predicative[1].startswith("are ") and self.chance(0.5):
             subject, pred = predicative
             single = self.np(_strip_posts(d), "indef")
@@ -790,6 +906,50 @@ class Realiser:
                                   f"{self.pick(('show', 'contain', 'have', 'include'))} any {x}?",
                                   f"Does the {self.pick(('image', 'picture', 'scene'))} show {single}?",
                                   f"Are any {x} present?", f"Can you see any {x}?", f"Are there any {x} present?"))
+
+    def _same_count_exist(self, target: Node, count: bool) -> str:
+        """Counts and existence of objects sharing an attribute with a referent, said of the referent (wording2):
+        "Does the car share its colour with any bus?", "The car has the same size as how many other things?",
+        "How many buses besides the car have its colour?", "How many other buses are there besides the red
+        one?"."""
+        same = _same_below(self.program, target)
+        attr = same.function.removeprefix("same_")
+        anchor = self.obj(self._in(same))
+        rest = _Obj()
+        node = target
+        while node is not same:
+            if node.function == "filter_shape":
+                rest.shape = node.value
+            else:
+                rest.attrs[_OBJECT_ATTR[node.function]] = node.value
+            node = self._in(node)
+        ref = self.np(anchor, "def")
+        name = self.pick(_ATTR_NAME[attr])
+        plain = not (rest.attrs or rest.shape)
+        if count:
+            ys = (self.pick(("other things", "other objects", "other vehicles", "other items", "others"))
+                  if plain else ("other " if self.chance(0.4) else "") + self.np(rest, "plural"))
+            besides = self.pick(("besides", "apart from", "other than", "except", "aside from"))
+            frames = [f"{ref} has the same {name} as how many {ys}?", f"{ref} shares its {name} with how many {ys}?",
+                      f"How many {ys} {besides} {ref} have its {name}?",
+                      f"How many {ys} {besides} {ref} have the same {name}?",
+                      f"{besides.capitalize()} {ref}, how many {ys} have the same {name}?",
+                      f"With how many {ys} does {ref} share its {name}?",
+                      f"{ref} is the same {name} as how many {ys}?"]
+            if attr == "shape" and plain and anchor.shape is not None:
+                kinds = self._noun(_Obj(shape=anchor.shape), True)
+                frames += [f"How many other {kinds} are there {besides} {ref}?",
+                           f"How many other {kinds} are there {besides} {ref}?",
+                           f"{besides.capitalize()} {ref}, how many other {kinds} are there?"]
+            return self.pick(frames)
+        some = (self.pick(("anything else", "any other thing", "any other object", "another object",
+                           "any other vehicle")) if plain
+                else "any " + ("other " if self.chance(0.3) else "") + self.np(rest, "indef").removeprefix("a ")
+                .removeprefix("an "))
+        return self.pick((f"Does {ref} share its {name} with {some}?", f"Does {ref} have the same {name} as {some}?",
+                          f"Is {ref} the same {name} as {some}?", f"Does {ref} match {some} in {name}?",
+                          f"Does {some} have the same {name} as {ref}?", f"Does {some} share {ref}'s {name}?"
+                          if len(ref.split()) <= 4 and not _has_clause(ref) else f"Does {some} share its {name} with {ref}?"))
 
     def _relation_yes_no(self, d: _Obj) -> str | None:
         """Exist over a relation, said of one object: "Is the car behind the bus?", "Does the truck occlude the
@@ -924,7 +1084,8 @@ class Realiser:
         rest = _Obj(attrs=d.attrs, shape=d.shape, posts=d.posts[:-1], occluded=d.occluded, other=d.other)
         if plur.startswith("that ") and not plur.startswith("that is "):
             if len(plur.split()) > 1 and plur.split()[1] in ("are", "face", "have", "occlude", "block", "hide", "share",
-                                                             "head", "point", "match", "cover", "obscure"):
+                                                             "head", "point", "match", "cover", "obscure", "stand",
+                                                             "sit"):
                 return self.np(rest, "plural"), plur.removeprefix("that ")
             return None
         if plur.startswith(("occluded by", "facing", "pointing")):
@@ -1058,6 +1219,31 @@ class Realiser:
         """Two counts on two sides of one referent, named once: "Are there more cars right of the bus than left
         of it?", "Is the number of things behind the car the same as the number of buses in front of it?"."""
         first, second = self.obj(a), self.obj(b)
+        ref = first.anchor_ref
+        if (self.wording and ref and first.posts and first.posts[0][1].endswith(ref)
+                and (second.attrs, second.shape) == (first.attrs, first.shape) and self.chance(0.5)):
+            where = f"{self.pick(lx.RELATION_FORMS[_relate_below(self.program, b).value])} it"
+            # the referent first: "Looking at the bus, are there more cars behind it than left of it?",
+            # "Does the bus have fewer cars behind it than left of it?"
+            first.posts[0] = tuple(p[: len(p) - len(ref)] + "it" for p in first.posts[0])
+            rel = first.posts[0][1].removeprefix("that are ")
+            bare = self.np(_Obj(attrs=first.attrs, shape=first.shape), "plural")
+            if self.chance(0.35):
+                more = {"greater_than": "more", "less_than": self.pick(("fewer", "less"))}.get(f)
+                if more is not None:
+                    return f"Does {ref} have {more} {bare} {rel} than {where}?"
+                return self.pick((f"Does {ref} have as many {bare} {rel} as {where}?",
+                                  f"Does {ref} have the same number of {bare} {rel} as {where}?"))
+            lead = self.pick((f"Looking at {ref}, ", f"There is {self.np(first.anchor, 'indef')}; ",
+                              f"Look at {ref}; ", f"Consider {ref}: ", f"As for {ref}, ", f"Focusing on {ref}, "))
+            x = f"{bare} {rel}"
+            frames = {"greater_than": [f"are there more {x} than {where}?", f"are there more {x} than there are {where}?",
+                                       f"do {x} outnumber those {where}?"],
+                      "less_than": [f"are there fewer {x} than {where}?", f"are there less {x} than {where}?",
+                                    f"are there fewer {x} than there are {where}?"],
+                      "equal_integer": [f"are there as many {x} as {where}?", f"are there the same number of {x} as {where}?",
+                                        f"is the number of {x} the same as the number {where}?"]}[f]
+            return lead + self.pick(frames)
         x = self.np(first, "plural")
         where = f"{self.pick(lx.RELATION_FORMS[_relate_below(self.program, b).value])} it"
         second.posts, second.other = [(where, where)], False
@@ -1087,6 +1273,24 @@ def _relate_below(program: Program, node: Node) -> Node | None:
     while node.function in ("filter_size", "filter_color", "filter_material", "filter_shape"):
         node = program[node.inputs[0]]
     return node if node.function == "relate" else None
+
+
+def _same_below(program: Program, node: Node) -> Node | None:
+    """The ``same_*`` node (not ``same_pose``) under a chain of attribute filters, if that is what ``node`` is."""
+    while node.function in ("filter_size", "filter_color", "filter_material", "filter_shape"):
+        node = program[node.inputs[0]]
+    return node if node.function.startswith("same_") and node.function != "same_pose" else None
+
+
+def _third_person(verb: str) -> str:
+    """"have" -> "has", "match" -> "matches", "occlude" -> "occludes"."""
+    if verb == "have":
+        return "has"
+    if verb.endswith(("s", "sh", "ch", "x", "z", "o")):
+        return verb + "es"
+    if verb.endswith("y") and verb[-2:-1] not in "aeiou":
+        return verb[:-1] + "ies"
+    return verb + "s"
 
 
 def _subtree(program: Program, index: int) -> tuple:
@@ -1228,6 +1432,9 @@ _SHAPE_EXTRA = {"truck": ("pickup",), "minivan": ("van",), "airliner": ("passeng
                 "scooter": ("moped",), "fighter": ("fighter aircraft", "warplane", "military jet"),
                 "car": ("auto", "motorcar"), "aeroplane": ("airplane", "aircraft"), "motorbike": ("motorcycle",),
                 "bicycle": ("bike", "pushbike"), "bus": ("coach", "omnibus"), "wagon": ("estate",)}
+#: Everyday shape names said only by the opt-in ``wording2`` phrasings.
+_SHAPE_EXTRA_2 = {"mountain": ("MTB", "mtb", "mountain-bike"), "utility": ("city bike", "city bicycle", "commuter bike"),
+                  "road": ("racing bike", "racing bicycle"), "bicycle": ("cycle", "push bike")}
 _PASSIVE_WORDS = ("occluded", "hidden", "blocked", "partially", "partly", "obscured", "covered")
 _POSE_EXTRA = {"front_pose": ("the camera", "towards us", "toward the viewer", "frontward", "forwards"),
                "back_pose": ("away", "away from us", "away from the viewer", "backwards", "rearward"),
