@@ -96,7 +96,7 @@ def test_cli_parses_with_an_ensemble(shipped):
 
 # ----- the shipped ensemble (models/manifest.json: question_parser_ensemble) -----------------------------------------
 
-SHIPPED_MEMBERS = ["question_parser", "question_parser_cr_seed0", "question_parser_cr_seed1"]
+SHIPPED_MEMBERS = ["question_parser", "question_parser_cr_seed0", "question_parser_w2_seed2"]
 
 
 @pytest.fixture(scope="module")
@@ -139,11 +139,11 @@ def test_a_corrupt_or_missing_member_is_a_typed_error_naming_the_file(tmp_path, 
     from po3d_ppl.language import load_question_parser
 
     directory = _copy_parsers(tmp_path)
-    weights = directory / "question_parser_cr_seed1.safetensors"
+    weights = directory / "question_parser_w2_seed2.safetensors"
     data = bytearray(weights.read_bytes())
     data[len(data) // 2] ^= 0xFF
     weights.write_bytes(bytes(data))
-    with pytest.raises(ModelFileError, match=r"question_parser_cr_seed1\.safetensors does not match its sha256"):
+    with pytest.raises(ModelFileError, match=r"question_parser_w2_seed2\.safetensors does not match its sha256"):
         load_question_parser(directory)
     assert isinstance(load_question_parser(directory, single=True), QuestionParser)  # the ablation still loads
     (directory / "question_parser_cr_seed0.vocab.json").unlink()
