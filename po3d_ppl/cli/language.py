@@ -24,8 +24,7 @@ def _load_parser(model_dir: Path | None, parser_dirs: list[Path] | None, rule: s
     """The parser of ``model_dir`` (default: models/): its ensemble where its manifest lists one, else (or with
     ``single``) its single parser; with ``parser_dirs`` an ensemble of its single parser and theirs."""
     from po3d_ppl.errors import InputError
-    from po3d_ppl.language import QuestionParser
-    from po3d_ppl.language.seq2seq.ensemble import RULES, ParserEnsemble, has_ensemble
+    from po3d_ppl.language.seq2seq.ensemble import RULES, ParserEnsemble, has_ensemble, load_question_parser
 
     if rule is not None and rule not in RULES:
         raise InputError("--ensemble-rule", f"must be one of {', '.join(RULES)}, got {rule!r}")
@@ -33,12 +32,14 @@ def _load_parser(model_dir: Path | None, parser_dirs: list[Path] | None, rule: s
         if single:
             raise InputError("--single-parser", "one parser; not with --parser-dir")
         return ParserEnsemble.load([model_dir, *parser_dirs], rule or "mixture", unknown_words=unknown_words)
-    if not single and has_ensemble(model_dir):
-        return ParserEnsemble.from_manifest(model_dir, unknown_words=unknown_words, rule=rule)
-    if rule is not None:
+    if rule is not None and (single or not has_ensemble(model_dir)):
         raise InputError("--ensemble-rule", "the single parser has no ensemble rule")
-    loaded = QuestionParser.load(model_dir)
-    return loaded if unknown_words else QuestionParser(loaded.trained, unknown_words=False)
+    return load_question_parser(model_dir, single=single, unknown_words=unknown_words, rule=rule)
+
+
+def _extra_families_words(extra: tuple[str, ...]) -> list[str]:
+    """``--extra-families NAME`` for each opt-in set, as the recorded commands spell them."""
+    return [word for name in extra for word in ("--extra-families", name)]
 
 
 def parse(
@@ -294,7 +295,7 @@ def calibrate_parser_command(
     metrics = dict(entry.pop("metrics", {}))
     metrics["calibration"] = {"command": shlex.join(["po3d", "train", "parser-calibration", "--corpus-seed",
                                                      str(corpus_seed), "--questions", str(questions),
-                                                     *(w for name in extra for w in ("--extra-families", name))]),
+                                                     *_extra_families_words(extra)]),
                               "questions": report.questions, "dev_accuracy": report.accuracy,
                               "dev_ece_before": report.ece_before, "dev_ece_after": report.ece_after,
                               "seconds": round(time.perf_counter() - start, 1),
@@ -346,8 +347,7 @@ def train_ensemble_command(
                                       seed=corpus_seed)
     path = ensemble.save(directory, member)
     words = ["po3d", "train", "parser-ensemble", *(w for name in member for w in ("--member", name)), "--rule", rule,
-             "--corpus-seed", str(corpus_seed), "--questions", str(questions),
-             *(w for name in extra for w in ("--extra-families", name))]
+             "--corpus-seed", str(corpus_seed), "--questions", str(questions), *_extra_families_words(extra)]
     if model_dir is not None:
         words += ["--model-dir", str(model_dir)]
     config = {"questions": questions, **({"extra_families": list(extra)} if extra else {})}
@@ -483,9 +483,8 @@ def _train_command(data: list[Path], config, out: Path | None, corpus: int = 0, 
     for directory in data:
         words += ["--data", str(directory)]
     if corpus:
-        words += ["--corpus", str(corpus), "--corpus-seed", str(corpus_seed), "--corpus-val", str(corpus_val)]
-        for name in extra_families:
-            words += ["--extra-families", name]
+        words += ["--corpus", str(corpus), "--corpus-seed", str(corpus_seed), "--corpus-val", str(corpus_val),
+                  *_extra_families_words(extra_families)]
     words += ["--ngram-buckets", str(config.ngram_buckets), "--word-dropout", str(config.word_dropout),
               "--threads", str(threads)]
     if max_minutes is not None:

@@ -164,9 +164,8 @@ class Realiser:
         m = re.match(r"(?:what is|what's|tell me|identify) (the \w+ of .+)$", low)
         if m:
             clause = m.group(1)
-            if lead_wh is None:
-                lead_wh = self.pick(("I want to know", "I'd like to know", "Tell me", "Please tell me",
-                                     "Can you tell me", "Let me know", "I need to know"))
+            lead_wh = self.pick(("I want to know", "I'd like to know", "Tell me", "Please tell me",
+                                "Can you tell me", "Let me know", "I need to know"))
         elif low.startswith("how many ") and not re.search(r" (does|do|can|is|has) ", low):
             clause = re.sub(r" are there$", " there are", low)
         else:

@@ -159,11 +159,8 @@ class ParserEnsemble:
     def load(cls, directories: Sequence[str | None], rule: Rule = "mixture", device: str | torch.device = "cpu",
              unknown_words: bool = True, **options) -> ParserEnsemble:
         """Members loaded from ``directories`` (None: the shipped parser), each checked against its manifest."""
-        members = []
-        for directory in directories:
-            loaded = QuestionParser.load(directory, device=device)
-            members.append(loaded if unknown_words else QuestionParser(loaded.trained, device=device,
-                                                                       unknown_words=False))
+        members = [QuestionParser.load(directory, device=device, unknown_words=unknown_words)
+                   for directory in directories]
         return cls(members, rule, **options)
 
     @classmethod
@@ -188,11 +185,8 @@ class ParserEnsemble:
         listed = read_manifest(directory)[ENSEMBLE_NAME].get("members")
         if listed is not None and list(listed) != names:
             raise ModelFileError(f"{path} lists the members {names}, its manifest entry {list(listed)}; {_RESTORE}")
-        members = []
-        for name in names:
-            loaded = QuestionParser.load(directory, device=device, name=name, retrain_hint=_RESTORE)
-            members.append(loaded if unknown_words else QuestionParser(loaded.trained, device=device,
-                                                                       unknown_words=False))
+        members = [QuestionParser.load(directory, device=device, name=name, retrain_hint=_RESTORE,
+                                       unknown_words=unknown_words) for name in names]
         return cls(members, rule or stored_rule, calibration=calibration, names=names)
 
     def save(self, directory: str | Path, names: Sequence[str]) -> Path:
@@ -272,12 +266,14 @@ def has_ensemble(directory: str | Path | None = None) -> bool:
 
 
 def load_question_parser(directory: str | Path | None = None, *, single: bool = False,
-                         device: str | torch.device = "cpu", unknown_words: bool = True
+                         device: str | torch.device = "cpu", unknown_words: bool = True, rule: Rule | None = None
                          ) -> ParserEnsemble | QuestionParser:
     """The shipped question parser: the ensemble the manifest of ``directory`` (default: models/) lists, or, where
     it lists none or with ``single=True`` (the ablation), the single parser (manifest entry ``question_parser``).
-    ``unknown_words=False`` switches the unknown-word mechanism off in every member (the ablation)."""
+    ``unknown_words=False`` switches the unknown-word mechanism off in every member (the ablation); ``rule``
+    overrides an ensemble's stored rule (an InputError for a single parser, which has none)."""
     if not single and has_ensemble(directory):
-        return ParserEnsemble.from_manifest(directory, device=device, unknown_words=unknown_words)
-    loaded = QuestionParser.load(directory, device=device, name=MODEL_NAME)
-    return loaded if unknown_words else QuestionParser(loaded.trained, device=device, unknown_words=False)
+        return ParserEnsemble.from_manifest(directory, device=device, unknown_words=unknown_words, rule=rule)
+    if rule is not None:
+        raise InputError("rule", "the single parser has no ensemble rule")
+    return QuestionParser.load(directory, device=device, name=MODEL_NAME, unknown_words=unknown_words)

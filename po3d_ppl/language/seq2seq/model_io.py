@@ -148,10 +148,11 @@ class QuestionParser:
     @classmethod
     def load(cls, directory: Path | str | None = None, registry: OperationRegistry | None = None,
              device: str | torch.device = "cpu", name: str = MODEL_NAME,
-             retrain_hint: str = RETRAIN) -> QuestionParser:
+             retrain_hint: str = RETRAIN, unknown_words: bool = True) -> QuestionParser:
         """Load the shipped single parser (or the one in ``directory``), verifying the files against the manifest.
         ``name``: another parser's manifest entry there (an ensemble member: its ``NAME.safetensors`` and
-        ``NAME.vocab.json``). The shipped default, an ensemble, is :func:`~po3d_ppl.language.load_question_parser`."""
+        ``NAME.vocab.json``). ``unknown_words=False``: the ablation (see ``__init__``). The shipped default, an
+        ensemble, is :func:`~po3d_ppl.language.load_question_parser`."""
         from po3d_ppl.model_store import model_files, models_dir
 
         directory = Path(directory) if directory is not None else models_dir()
@@ -175,7 +176,7 @@ class QuestionParser:
                           TargetVocabulary(tuple(meta["operations"]), tuple(meta["values"])),
                           tuple(meta["root_types"]), int(meta["max_len"]))
         trained.calibration = Calibration(**meta.get("calibration", {}))
-        return cls(trained, registry, device)
+        return cls(trained, registry, device, unknown_words=unknown_words)
 
     def encode(self, question: str) -> tuple[list[str], torch.Tensor, torch.Tensor | None,
                                              tuple[tuple[str, str], ...], tuple[str, ...]]:
