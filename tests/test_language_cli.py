@@ -76,3 +76,26 @@ def test_bad_dataset_directory(tmp_path):
     result = CliRunner().invoke(app, ["train", "parser", "--data", str(tmp_path / "nope")])
     assert result.exit_code != 0
     assert "--data" in str(result.exception) or "not a directory" in str(result.exception)
+
+
+def test_a_named_parser_has_its_own_files_entry_and_command(dataset, tmp_path):
+    """``--name``: an ensemble member is written, recorded and loaded under its own name, beside the default one."""
+    from po3d_ppl.language import QuestionParser
+
+    out = tmp_path / "model"
+    result = CliRunner().invoke(app, ["train", "parser", "--data", str(dataset), "--epochs", "1", "--max-steps", "1",
+                                      "--hidden", "16", "--embed", "8", "--out", str(out), "--name", "member_b"])
+    assert result.exit_code == 0, result.output
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert set(manifest) == {"member_b"}
+    assert set(manifest["member_b"]["files"]) == {"member_b.safetensors", "member_b.vocab.json"}
+    assert manifest["member_b"]["command"].endswith("--name member_b")
+    assert QuestionParser.load(out, name="member_b").parse("How many cars are there?").candidates
+
+
+@pytest.mark.parametrize("name", ["", "Member", "1st", "a/b", "x" * 65])
+def test_a_bad_parser_name_is_a_typed_error(name, tmp_path):
+    from po3d_ppl.errors import InputError
+
+    result = CliRunner().invoke(app, ["train", "parser", "--corpus", "10", "--name", name, "--out", str(tmp_path)])
+    assert isinstance(result.exception, InputError) and "--name" in str(result.exception)

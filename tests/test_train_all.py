@@ -19,6 +19,8 @@ from po3d_ppl.model_store import models_dir, read_manifest, sha256_file
 #: every model the chain writes (manifest name -> files)
 MODELS = {
     "question_parser": ("question_parser.safetensors", "question_parser.vocab.json"),
+    "question_parser_cr_seed0": ("question_parser_cr_seed0.safetensors", "question_parser_cr_seed0.vocab.json"),
+    "question_parser_ensemble": ("question_parser_ensemble.json",),
     "perception_features": ("perception_features.safetensors",),
     "background": ("background.safetensors",),
     "object_calibration": ("object_calibration.safetensors",),
@@ -151,6 +153,10 @@ def test_full_scale_repeats_the_shipped_commands(tmp_path):
     ours = {step.label: step.words for stage in steps.values() for step in stage}
     recorded = {"parser": shipped["question_parser"]["command"],
                 "parser calibration": shipped["question_parser"]["calibration_command"],
+                **{f"parser{suffix} {name}": shipped[name][key] for name in ("question_parser_cr_seed0",
+                                                                             "question_parser_w2_seed2")
+                   for suffix, key in (("", "command"), (" calibration", "calibration_command"))},
+                "parser ensemble": shipped["question_parser_ensemble"]["command"],
                 "perception": shipped["perception_features"]["command"],
                 "background": shipped["background"]["command"],
                 "calibration": shipped["object_calibration"]["command"],

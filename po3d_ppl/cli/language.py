@@ -15,6 +15,8 @@ _ENSEMBLE_RULE_HELP = ("How an ensemble's members' program log-probabilities com
                        "(the log of the mean probability). Default: the shipped ensemble's rule; mixture with "
                        "--parser-dir.")
 _SINGLE_HELP = ("The single parser (manifest entry question_parser) instead of the shipped ensemble (the ablation).")
+_NAME_HELP = ("The parser's name: its files NAME.safetensors and NAME.vocab.json and its manifest entry (an "
+              "ensemble member has its own, e.g. question_parser_cr_seed0).")
 _EXTRA_FAMILIES_HELP = ("Add an opt-in family set to the parser corpus (repeatable; known: compare_relate, wording2). Default: "
                         "none, the corpus the shipped single parser was trained on.")
 
@@ -35,6 +37,25 @@ def _load_parser(model_dir: Path | None, parser_dirs: list[Path] | None, rule: s
     if rule is not None and (single or not has_ensemble(model_dir)):
         raise InputError("--ensemble-rule", "the single parser has no ensemble rule")
     return load_question_parser(model_dir, single=single, unknown_words=unknown_words, rule=rule)
+
+
+def _check_name(name: str) -> str:
+    """A parser name usable as a file stem and manifest key (lower-case letters, digits, underscores)."""
+    import re
+
+    from po3d_ppl.errors import InputError
+
+    if not re.fullmatch(r"[a-z][a-z0-9_]{0,63}", name or ""):
+        raise InputError("--name", f"must be lower-case letters, digits and underscores, starting with a letter "
+                                   f"(e.g. question_parser_cr_seed0), got {name!r}")
+    return name
+
+
+def _name_words(name: str) -> list[str]:
+    """``--name NAME`` unless it is the default parser's."""
+    from po3d_ppl.language.seq2seq.model_io import MODEL_NAME
+
+    return [] if name == MODEL_NAME else ["--name", name]
 
 
 def _extra_families_words(extra: tuple[str, ...]) -> list[str]:
@@ -112,6 +133,7 @@ def train_parser_command(
     unconstrained_loss: bool = typer.Option(False, "--unconstrained-loss",
                                             help="Ablation: plain softmax loss, without the type masks."),
     out: Path = typer.Option(None, "--out", help="Where to write the model files (default: models/)."),
+    name: str = typer.Option("question_parser", "--name", help=_NAME_HELP),
     device: str = typer.Option("cpu", "--device", help="torch device, e.g. cpu or cuda."),
     threads: int = typer.Option(1, "--threads", min=1,
                                 help="torch CPU threads. The model is small: more threads help little and "
@@ -128,13 +150,14 @@ def train_parser_command(
 
     from po3d_ppl.cli._common import check_seed
     from po3d_ppl.errors import InputError
-    from po3d_ppl.language.seq2seq.model_io import MODEL_NAME, save_parser
+    from po3d_ppl.language.seq2seq.model_io import save_parser
     from po3d_ppl.language.seq2seq.train import TrainConfig, train_parser
     from po3d_ppl.language.typecheck import default_registry
     from po3d_ppl.model_store import models_dir, write_entry
     from po3d_ppl.questions.parser_examples import open_dataset, split_examples
 
     check_seed(seed)
+    _check_name(name)
     torch.set_num_threads(threads)
     console = Console()
     registry = default_registry()
@@ -181,15 +204,15 @@ def train_parser_command(
         trained = train_parser(train, config, registry, validation, device=device, progress=progress)
     seconds = time.perf_counter() - start
     directory = Path(out) if out is not None else models_dir()
-    files = save_parser(trained, directory)
+    files = save_parser(trained, directory, name)
     history = trained.history
     metrics = {"train_questions": len(train), "val_questions": len(validation), "train_seconds": round(seconds, 1),
                "history": history}
     if history and "val_exact_match" in history[-1]:
         metrics["val_exact_match"] = max(h["val_exact_match"] for h in history)
-    entry = write_entry(MODEL_NAME, files, directory,
+    entry = write_entry(name, files, directory,
                         command=_train_command(data or [], config, out, corpus, corpus_seed, corpus_val,
-                                               max_minutes, threads, extra),
+                                               max_minutes, threads, extra, name),
                         data_seed=[m.get("seed") for m in data_manifests],
                         data_config=[m.get("config") for m in data_manifests],
                         train_config=dataclasses.asdict(config), metrics=metrics)
@@ -264,6 +287,7 @@ def calibrate_parser_command(
     questions: int = typer.Option(1500, "--questions", min=50, help="Development questions (each perturbed)."),
     extra_families: list[str] = typer.Option(None, "--extra-families", help=_EXTRA_FAMILIES_HELP + " Give the "
                                              "parser's training families."),
+    name: str = typer.Option("question_parser", "--name", help=_NAME_HELP),
     threads: int = typer.Option(1, "--threads", min=1, help="torch CPU threads."),
 ) -> None:
     """Fit the parser's confidence calibration on perturbed held-out corpus questions and store it with the model."""
@@ -275,32 +299,34 @@ def calibrate_parser_command(
 
     from po3d_ppl.language import QuestionParser
     from po3d_ppl.language.seq2seq.calibrate import fit_calibration
-    from po3d_ppl.language.seq2seq.model_io import MODEL_NAME, VOCABULARY, WEIGHTS
+    from po3d_ppl.language.seq2seq.model_io import parser_files
     from po3d_ppl.model_store import models_dir, read_manifest, sha256_file, write_entry
     from po3d_ppl.questions.parser_corpus import CorpusConfig, check_extra_families, generate_corpus
 
     extra = check_extra_families(extra_families)
+    _check_name(name)
     torch.set_num_threads(threads)
     directory = Path(model_dir) if model_dir is not None else models_dir()
     start = time.perf_counter()
-    parser = QuestionParser.load(directory)
+    parser = QuestionParser.load(directory, name=name)
     report = fit_calibration(parser, generate_corpus(questions, CorpusConfig(seed=corpus_seed, extra_families=extra)),
                              seed=corpus_seed)
-    vocab_path = directory / VOCABULARY
+    weights_name, vocab_name = parser_files(name)
+    vocab_path = directory / vocab_name
     meta = json.loads(vocab_path.read_text())
     meta["calibration"] = dataclasses.asdict(report.calibration)
     vocab_path.write_text(json.dumps(meta, indent=1) + "\n")
-    entry = dict(read_manifest(directory)[MODEL_NAME])
+    entry = dict(read_manifest(directory)[name])
     entry.pop("files", None)
     metrics = dict(entry.pop("metrics", {}))
     metrics["calibration"] = {"command": shlex.join(["po3d", "train", "parser-calibration", "--corpus-seed",
                                                      str(corpus_seed), "--questions", str(questions),
-                                                     *_extra_families_words(extra)]),
+                                                     *_extra_families_words(extra), *_name_words(name)]),
                               "questions": report.questions, "dev_accuracy": report.accuracy,
                               "dev_ece_before": report.ece_before, "dev_ece_after": report.ece_after,
                               "seconds": round(time.perf_counter() - start, 1),
                               **dataclasses.asdict(report.calibration)}
-    write_entry(MODEL_NAME, [directory / WEIGHTS, vocab_path], directory, **entry, metrics=metrics)
+    write_entry(name, [directory / weights_name, vocab_path], directory, **entry, metrics=metrics)
     assert sha256_file(vocab_path)
     Console().print(f"calibration {report.calibration} on {report.questions} perturbed questions (top-1 accuracy "
                     f"{report.accuracy:.3f}): ECE {report.ece_before:.4f} -> {report.ece_after:.4f}",
@@ -477,7 +503,7 @@ def eval_language_command(
 
 def _train_command(data: list[Path], config, out: Path | None, corpus: int = 0, corpus_seed: int = 1,
                    corpus_val: int = 3000, max_minutes: float | None = None, threads: int = 1,
-                   extra_families: tuple[str, ...] = ()) -> str:
+                   extra_families: tuple[str, ...] = (), name: str = "question_parser") -> str:
     """The training command with every setting spelled out (defaults included), to reproduce the weights."""
     words = ["po3d", "train", "parser"]
     for directory in data:
@@ -497,7 +523,7 @@ def _train_command(data: list[Path], config, out: Path | None, corpus: int = 0, 
         words.append("--unconstrained-loss")
     if out is not None:
         words += ["--out", str(out)]
-    return shlex.join(words)
+    return shlex.join(words + _name_words(name))
 
 
 def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:

@@ -38,7 +38,7 @@ REPORT = "train_all.json"
 
 _DESCRIPTIONS = {
     "datasets": "po3d dataset build: rendered training and validation scenes",
-    "parser": "po3d train parser, then po3d train parser-calibration",
+    "parser": "po3d train parser and parser-calibration for each ensemble member, then po3d train parser-ensemble",
     "perception": "po3d train perception: feature extractor, neural meshes, clutter bank",
     "background": "po3d train background: the bare ground, lit and shadowed",
     "calibration": "po3d train calibration: object parser tables (uses --out's features and background)",
@@ -51,6 +51,9 @@ _DESCRIPTIONS = {
 #: model name in the manifest -> (stage that writes it, what it is)
 _MODELS = {
     "question_parser": ("parser", "question parser"),
+    "question_parser_cr_seed0": ("parser", "question parser ensemble member"),
+    "question_parser_w2_seed2": ("parser", "question parser ensemble member"),
+    "question_parser_ensemble": ("parser", "question parser ensemble"),
     "perception_features": ("perception", "perception features"),
     "background": ("background", "background model"),
     "object_calibration": ("calibration", "object calibration"),
@@ -77,6 +80,16 @@ class DatasetSpec:
 
 
 @dataclass(frozen=True)
+class ParserMember:
+    """One parser of the shipped ensemble: trained as ``name`` with the chain's seed plus ``seed_offset`` on the
+    corpus with the opt-in ``extra_families`` (calibrated on the same families)."""
+
+    name: str
+    seed_offset: int = 0
+    extra_families: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
 class Scale:
     """The datasets and each stage's settings (options of its ``po3d train`` command, by parameter name)."""
 
@@ -91,6 +104,10 @@ class Scale:
     viewpoint: dict[str, Any]
     projection: dict[str, Any]
     answer_calibration: dict[str, Any] = field(default_factory=dict)
+    #: the question parser's members (the first is the single parser, ``question_parser``) and the ensemble's
+    #: own settings (``po3d train parser-ensemble``; empty: the single parser is shipped alone)
+    parser_members: tuple[ParserMember, ...] = (ParserMember("question_parser"),)
+    parser_ensemble: dict[str, Any] = field(default_factory=dict)
     #: which datasets (by name) each stage trains on; ``val`` is the validation / calibration dataset
     train_sets: dict[str, tuple[str, ...]] = field(default_factory=dict)
     val: str = "val_s712"
@@ -107,6 +124,10 @@ FULL = Scale(
     parser={"corpus": 150000, "corpus_seed": 1, "corpus_val": 2000, "ngram_buckets": 4096, "word_dropout": 0.05,
             "max_minutes": 38.0, "epochs": 4, "batch_size": 64, "lr": 0.002, "hidden": 128, "embed": 64},
     parser_calibration={"corpus_seed": 2001, "questions": 1500},
+    parser_members=(ParserMember("question_parser"), ParserMember("question_parser_cr_seed0", 0, ("compare_relate",)),
+                    ParserMember("question_parser_w2_seed2", 2, ("compare_relate", "wording2"))),
+    parser_ensemble={"rule": "mixture", "corpus_seed": 2001, "questions": 1500,
+                     "extra_families": ["compare_relate", "wording2"]},
     perception={"epochs": 34, "batch_size": 8, "crop": "256x320", "lr": 0.002, "dim": 64, "splits": "train,val",
                 "eval_limit": 60},
     background={"split": "train", "limit": 80},
@@ -130,6 +151,8 @@ TINY = Scale(
     parser={"corpus": 200, "corpus_seed": 1, "corpus_val": 20, "ngram_buckets": 64, "word_dropout": 0.05,
             "epochs": 1, "batch_size": 16, "lr": 0.002, "hidden": 16, "embed": 16, "max_steps": 3},
     parser_calibration={"corpus_seed": 2001, "questions": 50},
+    parser_members=(ParserMember("question_parser"), ParserMember("question_parser_cr_seed0", 0, ("compare_relate",))),
+    parser_ensemble={"rule": "mixture", "corpus_seed": 2001, "questions": 50, "extra_families": ["compare_relate"]},
     # enough steps for the toy features to propose objects, real and spurious: the calibration's Platt fit needs both
     perception={"epochs": 200, "batch_size": 2, "crop": "128x160", "lr": 0.005, "dim": 16, "splits": "train",
                 "max_steps": 200},
@@ -203,7 +226,6 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
     from po3d_ppl.cli.attributes import train_attributes_command
     from po3d_ppl.cli.dataset import build
     from po3d_ppl.cli.evaluate import train_answer_calibration_command
-    from po3d_ppl.cli.language import calibrate_parser_command, train_parser_command
     from po3d_ppl.cli.objects import train_background_command, train_calibration_command, train_projection_command
     from po3d_ppl.cli.perception import train_perception_command
     from po3d_ppl.cli.priors import train_priors
@@ -224,10 +246,7 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
     steps: dict[str, list[Step]] = {
         "datasets": [step(f"dataset {d.name}", build, ["po3d", "dataset", "build"], out=path(d.name),
                           scenes=d.scenes, seed=d.seed, workers=1) for d in scale.datasets],
-        "parser": [step("parser", train_parser_command, ["po3d", "train", "parser"], **scale.parser, seed=seed,
-                        threads=threads, out=out),
-                   step("parser calibration", calibrate_parser_command, ["po3d", "train", "parser-calibration"],
-                        bar=True, model_dir=out, **scale.parser_calibration, threads=threads)],
+        "parser": parser_steps(scale, out, seed, threads, step),
         "perception": [step("perception", train_perception_command, ["po3d", "train", "perception"],
                             data=sets("perception"), seed=seed, **scale.perception, threads=threads,
                             eval_data=held, out=out)],
@@ -250,6 +269,28 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
                                     data=sets("answer_calibration"), **scale.answer_calibration,
                                     threads=threads, out=out, model_dir=out)],
     }
+    return steps
+
+
+def parser_steps(scale: Scale, out: Path, seed: int, threads: int, step: Callable[..., Step]) -> list[Step]:
+    """Each member trained and calibrated under its own name, then the ensemble's calibration (which makes the
+    members the shipped parser). The first member's steps keep the single parser's labels."""
+    from po3d_ppl.cli.language import calibrate_parser_command, train_ensemble_command, train_parser_command
+
+    steps = []
+    for n, member in enumerate(scale.parser_members):
+        suffix = "" if n == 0 else f" {member.name}"
+        named = {} if member.name == "question_parser" else {"name": member.name}
+        extra = {"extra_families": list(member.extra_families)} if member.extra_families else {}
+        steps.append(step(f"parser{suffix}", train_parser_command, ["po3d", "train", "parser"], **scale.parser,
+                          **extra, seed=seed + member.seed_offset, threads=threads, out=out, **named))
+        steps.append(step(f"parser calibration{suffix}", calibrate_parser_command,
+                          ["po3d", "train", "parser-calibration"], bar=True, model_dir=out,
+                          **scale.parser_calibration, **extra, threads=threads, **named))
+    if scale.parser_ensemble:
+        steps.append(step("parser ensemble", train_ensemble_command, ["po3d", "train", "parser-ensemble"], bar=True,
+                          member=[m.name for m in scale.parser_members], **scale.parser_ensemble, model_dir=out,
+                          threads=threads))
     return steps
 
 

@@ -29,8 +29,6 @@ from po3d_ppl.language.tokens import program_to_tokens
 from po3d_ppl.language.typecheck import check_program, default_registry
 
 MODEL_NAME = "question_parser"
-WEIGHTS = f"{MODEL_NAME}.safetensors"
-VOCABULARY = f"{MODEL_NAME}.vocab.json"
 FORMAT = 2
 #: Formats this code reads (1: words only, no counts, no calibration).
 READABLE_FORMATS = (1, 2)
@@ -105,10 +103,16 @@ class QuestionParse:
                 f"does not cover{why}")
 
 
-def save_parser(trained: Trained, directory: Path) -> list[Path]:
-    """Write the weights and vocabulary of ``trained`` into ``directory``; returns the two paths."""
+def parser_files(name: str = MODEL_NAME) -> tuple[str, str]:
+    """The weights and vocabulary file names of the parser called ``name`` (an ensemble member has its own)."""
+    return f"{name}.safetensors", f"{name}.vocab.json"
+
+
+def save_parser(trained: Trained, directory: Path, name: str = MODEL_NAME) -> list[Path]:
+    """Write the weights and vocabulary of ``trained`` into ``directory`` as ``name`` (:func:`parser_files`);
+    returns the two paths."""
     directory.mkdir(parents=True, exist_ok=True)
-    weights, vocab = directory / WEIGHTS, directory / VOCABULARY
+    weights, vocab = (directory / f for f in parser_files(name))
     tensors = {k: v.detach().cpu().contiguous() for k, v in trained.model.state_dict().items()}
     save_file(tensors, str(weights), metadata={"format": str(FORMAT)})
     weights.chmod(0o644)
@@ -157,7 +161,7 @@ class QuestionParser:
 
         directory = Path(directory) if directory is not None else models_dir()
         files = model_files(name, directory, retrain_hint)
-        weights, vocab_path = files.get(f"{name}.safetensors"), files.get(f"{name}.vocab.json")
+        weights, vocab_path = (files.get(f) for f in parser_files(name))
         if weights is None or vocab_path is None:
             raise ModelFileError(f"model {name!r} in {directory} should list {name}.safetensors and "
                                  f"{name}.vocab.json, its manifest entry lists {', '.join(files)}; {retrain_hint}")
