@@ -30,14 +30,16 @@ def _masked_log_softmax(logits: torch.Tensor, allowed: np.ndarray) -> torch.Tens
 
 @torch.inference_mode()
 def beam_search(model: Seq2SeqParser, automaton: TypeAutomaton, words: torch.Tensor, n: int = 1, beam: int = 5,
-                weights: StepWeights | None = None, ngrams: torch.Tensor | None = None) -> list[Hypothesis]:
+                weights: StepWeights | None = None, ngrams: torch.Tensor | None = None,
+                start: tuple[torch.Tensor, ...] | None = None) -> list[Hypothesis]:
     """The ``n`` most probable complete programs for one question ``words`` ``[T]`` (beam width ``beam``).
 
-    ``weights`` (from :meth:`Seq2SeqParser.step_weights`) can be computed once and passed in to save time.
+    ``weights`` (from :meth:`Seq2SeqParser.step_weights`) and ``start`` (the encoder's output,
+    :meth:`Seq2SeqParser.start` of ``words``) can be computed once and passed in to save time.
     """
     beam = max(beam, n)
     w = weights or model.step_weights()
-    memory, keys, h, c = model.start(words, ngrams)
+    memory, keys, h, c = start if start is not None else model.start(words, ngrams)
     active: list[tuple[tuple[int, ...], DecodeState]] = [((), automaton.initial())]
     active_scores = torch.zeros(1)
     finished: list[Hypothesis] = []

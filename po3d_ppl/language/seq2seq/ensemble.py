@@ -72,11 +72,11 @@ _RESTORE = ("restore it with `git checkout models/`, or retrain it with the comm
 
 @torch.inference_mode()
 def sequence_log_probs(member: QuestionParser, words: torch.Tensor, ngrams: torch.Tensor | None,
-                       programs: Sequence[Program]) -> list[float]:
+                       programs: Sequence[Program], start: tuple[torch.Tensor, ...] | None = None) -> list[float]:
     """Teacher-forced log-probability of each of ``programs`` under ``member`` for the encoded question
     (``words``, ``ngrams`` from ``member.encode``), under the type-constrained distribution its beam search uses;
     -inf for a program the member cannot express (a token outside its vocabulary, a token its automaton does not
-    allow there, or too long)."""
+    allow there, or too long). ``start``: the member's encoder output for the question, if already computed."""
     automaton, targets = member.automaton, member.trained.targets
     out = [-math.inf] * len(programs)
     rows: list[int] = []
@@ -92,7 +92,7 @@ def sequence_log_probs(member: QuestionParser, words: torch.Tensor, ngrams: torc
     if not rows:
         return out
     k, length = len(rows), max(len(s) for s in sequences)
-    memory, keys, h, c = member.model.start(words, ngrams)
+    memory, keys, h, c = start if start is not None else member.model.start(words, ngrams)
     h, c = h.expand(k, -1).contiguous(), c.expand(k, -1).contiguous()
     states = [automaton.initial() for _ in rows]
     totals = np.zeros(k)
@@ -213,10 +213,14 @@ class ParserEnsemble:
         encoded = [member.encode(question) for member in self.members]
         programs: dict[tuple[str, ...], Program] = {}
         known: list[dict[tuple[str, ...], float]] = []  # each member's own beam scores (= its teacher-forced ones)
-        for member, (_, words, ngrams, _, _) in zip(self.members, encoded):
+        # each member's encoder runs once: its beam search and its teacher forcing read the same states
+        with torch.inference_mode():
+            started = [member.model.start(words, ngrams) for member, (_, words, ngrams, _, _) in
+                       zip(self.members, encoded)]
+        for member, (_, words, ngrams, _, _), start in zip(self.members, encoded, started):
             scores = {}
             for hypothesis in beam_search(member.model, member.automaton, words, n=propose, beam=max(beam, propose),
-                                          weights=member.step_weights, ngrams=ngrams):
+                                          weights=member.step_weights, ngrams=ngrams, start=start):
                 program = member.trained.targets.decode(hypothesis.ids, member.registry)
                 key = tuple(program_to_tokens(program))
                 programs.setdefault(key, program)
@@ -226,7 +230,8 @@ class ParserEnsemble:
         table = np.empty((len(self.members), len(keys)))
         for m, (member, (_, words, ngrams, _, _)) in enumerate(zip(self.members, encoded)):
             missing = [key for key in keys if key not in known[m]]
-            rescored = dict(zip(missing, sequence_log_probs(member, words, ngrams, [programs[k] for k in missing])))
+            rescored = dict(zip(missing, sequence_log_probs(member, words, ngrams, [programs[k] for k in missing],
+                                                            started[m])))
             table[m] = [known[m][key] if key in known[m] else rescored[key] for key in keys]
         combined = [combine(table[:, i].tolist(), self.rule) for i in range(len(keys))]
         if all(score == -math.inf for score in combined):  # no candidate every member can express
