@@ -234,6 +234,16 @@ def lexicon_words() -> frozenset[str]:
     return frozenset(words)
 
 
+@cache
+def object_noun_words() -> frozenset[str]:
+    """The words of every noun phrase naming an object (shapes, their plurals, "thing" and its synonyms): where a
+    noun phrase ends, for words that must follow it."""
+    forms = [*THING_FORMS, *THING_PLURALS]
+    for value in ontology.SHAPE_VALUES:
+        forms += [*shape_forms(value), *(p for f in shape_forms(value) for p in plural_forms(f))]
+    return frozenset(w for form in forms for w in form.split())
+
+
 #: Words for answer values that are not said as the value itself.
 _BOOL_WORDS = {True: "yes", False: "no"}
 

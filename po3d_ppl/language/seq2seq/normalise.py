@@ -1,4 +1,5 @@
-"""Unknown words before the network: typo correction within edit distance 1, compound splitting and joining.
+"""Unknown words before the network: ordinary synonyms read as corpus words (:mod:`po3d_ppl.language.paraphrase`),
+typo correction within edit distance 1, compound splitting and joining.
 
 Why here and not in the network: a word the training questions never used has no embedding, and its character
 n-grams (the subword input) only say what it looks like. When a word is one edit (insertion, deletion,
@@ -12,6 +13,8 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+
+from po3d_ppl.language.paraphrase import paraphrase
 
 _LETTERS = "abcdefghijklmnopqrstuvwxyz0123456789"
 #: Shorter words are never corrected: one edit of a 1-2 letter word is too often another word.
@@ -60,8 +63,9 @@ class Normaliser:
         return min(cuts, key=lambda c: abs(len(c[0]) - len(c[1]))) if cuts else None
 
     def __call__(self, words: Sequence[str]) -> Normalised:
+        words, rewrites = paraphrase(words, self.counts)
         out: list[str] = []
-        corrections: list[tuple[str, str]] = []
+        corrections: list[tuple[str, str]] = list(rewrites)
         unknown: list[str] = []
         i = 0
         while i < len(words):
