@@ -8,11 +8,13 @@ instead of loading wrong weights silently. Weights are safetensors only (never p
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import json
 import os
 import tempfile
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -77,12 +79,13 @@ def write_entry(name: str, files: Iterable[Path], directory: Path | None = None,
     """Record ``files`` (already written into ``directory``) as model ``name``, with ``metadata`` (data seed,
     command, metrics ...). Other models' entries are kept; the manifest is replaced atomically."""
     directory = Path(directory or models_dir())
-    manifest = read_manifest(directory)
     entry = {"files": {Path(f).name: {"sha256": sha256_file(directory / Path(f).name),
                                       "bytes": (directory / Path(f).name).stat().st_size} for f in files},
              **metadata}
-    manifest[name] = entry
-    _write_manifest(manifest, directory)
+    with _manifest_lock(directory):
+        manifest = read_manifest(directory)
+        manifest[name] = entry
+        _write_manifest(manifest, directory)
     return entry
 
 
@@ -90,11 +93,25 @@ def record_metrics(name: str, key: str, metrics: Mapping[str, Any], directory: P
     """Store ``metrics`` under ``metrics[key]`` of model ``name``'s entry (e.g. an evaluation on held-out data),
     keeping everything else."""
     directory = Path(directory or models_dir())
-    manifest = read_manifest(directory)
-    if name not in manifest:
-        raise ModelFileError(f"model {name!r} has no entry in {directory / MANIFEST}")
-    manifest[name].setdefault("metrics", {})[key] = dict(metrics)
-    _write_manifest(manifest, directory)
+    with _manifest_lock(directory):
+        manifest = read_manifest(directory)
+        if name not in manifest:
+            raise ModelFileError(f"model {name!r} has no entry in {directory / MANIFEST}")
+        manifest[name].setdefault("metrics", {})[key] = dict(metrics)
+        _write_manifest(manifest, directory)
+
+
+@contextlib.contextmanager
+def _manifest_lock(directory: Path) -> Iterator[None]:
+    """Hold an exclusive lock on ``directory``'s manifest while it is read, changed and replaced: models trained
+    in parallel (``po3d train all --jobs 2``) write their entries into one manifest, and an unlocked
+    read-modify-write would drop an entry written in between."""
+    with open(directory / ".manifest.lock", "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
 
 
 def _write_manifest(manifest: Mapping[str, Any], directory: Path) -> None:

@@ -67,9 +67,13 @@ def test_parse_is_robust_to_case_and_punctuation_and_reports_unknown_words(parse
     shouted = parser.parse("WHAT is the COLOR of the wheel of the red car ??")
     assert shouted.best.program == plain.best.program
     assert shouted.unknown_words == ()
-    odd = parser.parse("What is the color of the wheel of the crimson car?")
-    assert odd.unknown_words == ("crimson",)
+    odd = parser.parse("What is the color of the wheel of the flurbish car?")
+    assert odd.unknown_words == ("flurbish",)
     check_program(odd.best.program)
+    # an ordinary synonym outside the vocabulary is read as its corpus word (po3d_ppl.language.paraphrase)
+    synonym = parser.parse("What is the color of the wheel of the crimson car?")
+    assert synonym.unknown_words == () and synonym.corrections == (("crimson", "red"),)
+    assert synonym.best.program == plain.best.program
 
 
 def test_empty_question_is_a_typed_error(parser):

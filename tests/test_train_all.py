@@ -8,6 +8,7 @@ import itertools
 import json
 import shlex
 import sys
+from pathlib import Path
 
 import pytest
 from typer.testing import CliRunner
@@ -37,7 +38,7 @@ def tiny_chain(tmp_path_factory, torch_one_thread):
     root = tmp_path_factory.mktemp("train_all")
     data, out = root / "data", root / "models"
     result = CliRunner().invoke(app, ["train", "all", "--data", str(data), "--out", str(out), "--scale", "tiny",
-                                      "--seed", "0", "--threads", "1"])
+                                      "--seed", "0", "--threads", "1", "--jobs", "2"])
     assert result.exit_code == 0, (result.output, result.exception)
     return data, out, result.output
 
@@ -70,7 +71,13 @@ def test_tiny_chain_reports_every_stage_with_seconds(tiny_chain):
         assert row["cpu_seconds"] >= 0 and row["steps"], stage
         assert all(step["command"].startswith("po3d ") for step in row["steps"]), stage
     assert report["total_seconds"] == pytest.approx(sum(r["seconds"] for r in report["stages"].values()), abs=0.2)
-    assert report["scale"] == "tiny" and report["threads"] == 1
+    assert report["scale"] == "tiny" and report["threads"] == 1 and report["jobs"] == 2
+    # --jobs 2: the members trained at once, each in a process of its own, its output in a log
+    members = [step for step in report["stages"]["parser"]["steps"] if "log" in step]
+    assert [step["step"] for step in members] == ["parser", "parser calibration", "parser question_parser_cr_seed0",
+                                                   "parser calibration question_parser_cr_seed0"]
+    assert all(Path(step["log"]).is_file() for step in members)
+    assert report["stages"]["parser"]["steps"][-1]["step"] == "parser ensemble"
     for stage in STAGES:  # the printed table
         assert stage in output
     assert "total" in output and REPORT in output

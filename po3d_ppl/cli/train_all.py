@@ -20,6 +20,8 @@ import inspect
 import json
 import os
 import shlex
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -179,6 +181,8 @@ class Step:
     kwargs: dict[str, Any]
     words: list[str]
     bar: bool = False  # the command has no progress bar of its own: show one around it
+    #: steps of one group run in order in one process; different groups may run at once (``--jobs``)
+    group: str | None = None
 
 
 def invoke(fn: Callable[..., Any], **kwargs: Any) -> Any:
@@ -240,8 +244,8 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
     val = path(scale.val)
     held = val if scale.evaluate else None
 
-    def step(label: str, fn, prefix: list[str], bar: bool = False, **kwargs):
-        return Step(label, fn, kwargs, command_words(prefix, kwargs), bar)
+    def step(label: str, fn, prefix: list[str], bar: bool = False, group: str | None = None, **kwargs):
+        return Step(label, fn, kwargs, command_words(prefix, kwargs), bar, group)
 
     steps: dict[str, list[Step]] = {
         "datasets": [step(f"dataset {d.name}", build, ["po3d", "dataset", "build"], out=path(d.name),
@@ -273,8 +277,9 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
 
 
 def parser_steps(scale: Scale, out: Path, seed: int, threads: int, step: Callable[..., Step]) -> list[Step]:
-    """Each member trained and calibrated under its own name, then the ensemble's calibration (which makes the
-    members the shipped parser). The first member's steps keep the single parser's labels."""
+    """Each member trained and calibrated under its own name (one group per member: members may train at once),
+    then the ensemble's calibration (which makes the members the shipped parser). The first member's steps keep
+    the single parser's labels."""
     from po3d_ppl.cli.language import calibrate_parser_command, train_ensemble_command, train_parser_command
 
     steps = []
@@ -282,10 +287,11 @@ def parser_steps(scale: Scale, out: Path, seed: int, threads: int, step: Callabl
         suffix = "" if n == 0 else f" {member.name}"
         named = {} if member.name == "question_parser" else {"name": member.name}
         extra = {"extra_families": list(member.extra_families)} if member.extra_families else {}
-        steps.append(step(f"parser{suffix}", train_parser_command, ["po3d", "train", "parser"], **scale.parser,
-                          **extra, seed=seed + member.seed_offset, threads=threads, out=out, **named))
+        steps.append(step(f"parser{suffix}", train_parser_command, ["po3d", "train", "parser"], group=member.name,
+                          **scale.parser, **extra, seed=seed + member.seed_offset, threads=threads, out=out,
+                          **named))
         steps.append(step(f"parser calibration{suffix}", calibrate_parser_command,
-                          ["po3d", "train", "parser-calibration"], bar=True, model_dir=out,
+                          ["po3d", "train", "parser-calibration"], bar=True, group=member.name, model_dir=out,
                           **scale.parser_calibration, **extra, threads=threads, **named))
     if scale.parser_ensemble:
         steps.append(step("parser ensemble", train_ensemble_command, ["po3d", "train", "parser-ensemble"], bar=True,
@@ -339,9 +345,11 @@ def _read_report(path: Path) -> dict:
 
 
 def train_all(data: Path, out: Path, *, seed: int = 0, scale: str = "full", stages: list[str] | None = None,
-              threads: int = 1, console=None) -> dict:
+              threads: int = 1, jobs: int | None = None, console=None) -> dict:
     """Run ``stages`` (default: all, in :data:`STAGES` order) at ``scale``; return the report also written to
-    ``out/train_all.json``. Datasets the stages read are built first when ``data`` lacks them."""
+    ``out/train_all.json``. Datasets the stages read are built first when ``data`` lacks them. The parser
+    ensemble's members train ``jobs`` at a time (default: all at once), each in a process of its own on
+    ``threads`` threads (the same commands); ``jobs=1`` trains them one after another in this process."""
     import torch
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
@@ -354,6 +362,8 @@ def train_all(data: Path, out: Path, *, seed: int = 0, scale: str = "full", stag
         raise UnknownNameError("scale", scale, SCALES, "pass --scale full or --scale tiny")
     if threads < 1:
         raise InputError("--threads", f"must be at least 1, got {threads}")
+    if jobs is not None and jobs < 1:
+        raise InputError("--jobs", f"must be at least 1, got {jobs}")
     chosen = list(STAGES) if not stages else stages
     for name in chosen:
         if name not in STAGES:
@@ -367,7 +377,7 @@ def train_all(data: Path, out: Path, *, seed: int = 0, scale: str = "full", stag
         raise InputError("--out", f"{out} exists and is not a directory")
     assert all(d.seed != TEST_SEED for d in spec.datasets), "the held-out test seed is never trained on"
     base = ["po3d", "train", "all", "--data", str(data), "--out", str(out), "--seed", str(seed), "--scale", scale,
-            "--threads", str(threads)]
+            "--threads", str(threads)] + ([] if jobs is None else ["--jobs", str(jobs)])
     # the datasets stage runs whenever a selected stage reads a dataset (building only what is missing)
     needed = datasets_needed(spec, chosen)
     run = [s for s in STAGES if s in chosen or (s == "datasets" and needed)]
@@ -385,8 +395,13 @@ def train_all(data: Path, out: Path, *, seed: int = 0, scale: str = "full", stag
     for number, stage in enumerate(run, 1):
         console.rule(f"[bold]{number}/{len(run)} {stage}[/]: {_DESCRIPTIONS[stage]}", style="cyan")
         stage_start, stage_cpu = time.perf_counter(), _cpu_seconds()
-        parts = []
+        groups = {st.group for st in steps[stage] if st.group is not None}
+        at_once = len(groups) if jobs is None else jobs
+        parallel = [st for st in steps[stage] if st.group is not None] if at_once > 1 and len(groups) > 1 else []
+        parts = _run_at_once(parallel, at_once, out, console) if parallel else []
         for step in steps[stage]:
+            if step in parallel:
+                continue
             console.print("$ " + shlex.join(step.words), markup=False, highlight=False, style="dim", soft_wrap=True)
             start, cpu = time.perf_counter(), _cpu_seconds()
             if step.bar:
@@ -405,7 +420,7 @@ def train_all(data: Path, out: Path, *, seed: int = 0, scale: str = "full", stag
                            "outputs": _outputs(stage, steps[stage], out)}
         # written after every stage, so an interrupted chain keeps the timings of what it finished
         report = {"command": shlex.join(base + ["--stages", ",".join(run)]), "scale": scale, "seed": seed,
-                  "threads": threads, "data": str(data), "out": str(out), "started": started,
+                  "threads": threads, "jobs": jobs, "data": str(data), "out": str(out), "started": started,
                   "cpu_count": os.cpu_count(), "device": "cpu",
                   "stages": {s: recorded[s] for s in STAGES if s in recorded}}
         report["total_seconds"] = round(sum(s["seconds"] for s in report["stages"].values()), 1)
@@ -414,6 +429,53 @@ def train_all(data: Path, out: Path, *, seed: int = 0, scale: str = "full", stag
     print_report(report, console, ran=run)
     console.print(f"report -> {report_path}", markup=False, highlight=False)
     return report
+
+
+def _run_at_once(steps: list[Step], jobs: int, out: Path, console) -> list[dict]:
+    """Run the groups of ``steps`` (each group's steps in order, in a process of its own: the command line the
+    step prints) ``jobs`` at a time, their output in ``out/logs/GROUP.log``; one progress line per group. Why
+    processes: each member trains on its own thread(s), so the three members of the shipped ensemble share the
+    two cores instead of leaving one idle (measured in docs/architecture.md). A failed command stops the chain with its log's
+    last lines."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    from po3d_ppl.errors import Po3dError
+
+    groups: dict[str, list[Step]] = {}
+    for step in steps:
+        groups.setdefault(step.group, []).append(step)
+    logs = out / "logs"
+    logs.mkdir(parents=True, exist_ok=True)
+    for step in steps:
+        console.print("$ " + shlex.join(step.words), markup=False, highlight=False, style="dim", soft_wrap=True)
+    console.print(f"{len(groups)} groups, {jobs} at a time; logs in {logs}", markup=False, highlight=False)
+
+    def run_group(name: str, tasks: dict, progress) -> list[dict]:
+        records = []
+        log = logs / f"{name}.log"
+        with open(log, "w") as handle:
+            for step in groups[name]:
+                progress.update(tasks[name], description=f"{name}: {step.label}")
+                start = time.perf_counter()
+                done = subprocess.run([sys.executable, "-c", "from po3d_ppl.cli import main; main()",
+                                       *step.words[1:]], stdout=handle, stderr=subprocess.STDOUT)
+                if done.returncode != 0:
+                    tail = log.read_text(errors="replace").strip().splitlines()[-8:]
+                    raise Po3dError(f"{step.label} failed (exit {done.returncode}): {shlex.join(step.words)}\n"
+                                    + "\n".join(tail) + f"\n(full output: {log})")
+                records.append({"step": step.label, "command": shlex.join(step.words),
+                                "seconds": round(time.perf_counter() - start, 1), "cpu_seconds": None,
+                                "log": str(log)})
+        progress.update(tasks[name], description=f"{name}: done", completed=1)
+        return records
+
+    with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=console) as bar:
+        tasks = {name: bar.add_task(f"{name}: waiting", total=1) for name in groups}
+        with ThreadPoolExecutor(max_workers=jobs) as pool:
+            futures = [pool.submit(run_group, name, tasks, bar) for name in groups]
+            return [record for future in futures for record in future.result()]
 
 
 def _outputs(stage: str, steps: list[Step], out: Path) -> list[str]:
@@ -465,6 +527,9 @@ def train_all_command(
         "--stages", help=f"Comma-separated subset of {','.join(STAGES)} (default: all); later stages read earlier "
                          "ones' models from --out.")] = None,
     threads: Annotated[int, typer.Option("--threads", min=1, help="torch CPU threads of every stage.")] = 1,
+    jobs: Annotated[int | None, typer.Option(
+        "--jobs", min=1, help="Parser ensemble members trained at once, each in a process of its own (default: all "
+                              "of them; 1: one after another in this process).")] = None,
 ) -> None:
     """Train every model in dependency order (datasets, parser, perception, background, calibration, attributes,
     viewpoint, projection, priors) with a progress bar on each stage, and report the seconds each took."""
@@ -483,7 +548,7 @@ def train_all_command(
     chosen = [s.strip() for s in stages.split(",") if s.strip()] if stages else None
     if stages is not None and not chosen:
         raise InputError("--stages", f"name at least one stage of {','.join(STAGES)}")
-    train_all(data, out, seed=seed, scale=scale, stages=chosen, threads=threads)
+    train_all(data, out, seed=seed, scale=scale, stages=chosen, threads=threads, jobs=jobs)
 
 
 def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:
