@@ -1,6 +1,8 @@
 """Where the part-look table goes wrong: each visible part (>= 20 px) of every matched object, the reading of its
-true subtype's slot (arg-max of ``part_style_loglik``: plain, or colour and material) against the truth, split
-by whether the top subtype is right and by how well the parse's most likely rendering covers the true part (IoU).
+true subtype's slot (plain, or colour and material) against the truth, split by whether the top subtype is right
+and by how well the parse's most likely rendering covers the true part (IoU). The reading is the arg-max of the
+posterior under the shipped priors (``models/priors.json``: recoloured with probability ``part_recoloured``, its
+16 looks alike), as reasoning reads it; ``--likelihood`` takes the arg-max of the table alone.
 
     python benchmarks/part_look_errors.py --data /work/data/val_s716 --limit 60 [--first 0] [--rows rows.json]
 
@@ -22,8 +24,10 @@ import torch
 IOU_EDGES = (0.0, 0.25, 0.5, 0.75, 1.0001)
 
 
-def part_rows(data: Path, first: int, limit: int) -> list[dict]:
+def part_rows(data: Path, first: int, limit: int, likelihood: bool = False) -> list[dict]:
     from po3d_ppl import ontology
+    from po3d_ppl.evidence import NUM_STYLES
+    from po3d_ppl.perception.priors import load_priors
     from po3d_ppl.evidence import style_index
     from po3d_ppl.perception.scene_parser import ImageParser
     from po3d_ppl.questions.dataset import BuildConfig, load_dataset, scene_seeds
@@ -34,6 +38,11 @@ def part_rows(data: Path, first: int, limit: int) -> list[dict]:
     config["split_fractions"] = tuple(config["split_fractions"])
     scene_config = BuildConfig(**config).scene_config()
     parser = ImageParser.load()
+    recoloured = load_priors().part_recoloured
+    log_prior = torch.full((NUM_STYLES,), float(np.log(recoloured / (NUM_STYLES - 1))))
+    log_prior[0] = float(np.log(1 - recoloured))
+    if likelihood:
+        log_prior.zero_()
     rows = []
     for index in range(first, min(first + limit, len(dataset.public_scenes))):
         truth = generate_scene(scene_seeds(dataset.manifest["seed"], index)[0], scene_config, image_index=index)
@@ -57,7 +66,8 @@ def part_rows(data: Path, first: int, limit: int) -> list[dict]:
                 rows.append({"image": index, "subtype": obj.subtype, "part": name, "body_color": obj.color,
                              "pixels": int(true_part.sum()), "recoloured": style is not None,
                              "truth": 0 if style is None else style_index(style.color, style.material),
-                             "read": int(evidence.part_style_loglik[k, subtype, p].argmax()),
+                             "read": int((evidence.part_style_loglik[k, subtype, p].double()
+                                          + log_prior).argmax()),
                              "subtype_right": int(evidence.subtype_loglik[k].argmax()) == subtype,
                              "iou": float(np.logical_and(shown, true_part).sum()
                                           / max(1, np.logical_or(shown, true_part).sum()))})
@@ -94,9 +104,10 @@ def main() -> None:
     parser.add_argument("--first", type=int, default=0)
     parser.add_argument("--limit", type=int, default=60)
     parser.add_argument("--rows", type=Path, default=None, help="Also write every part's row here (JSON).")
+    parser.add_argument("--likelihood", action="store_true", help="Read the table's arg-max, without the priors.")
     args = parser.parse_args()
     torch.set_num_threads(1)
-    rows = part_rows(args.data, args.first, args.limit)
+    rows = part_rows(args.data, args.first, args.limit, args.likelihood)
     if args.rows is not None:
         args.rows.write_text(json.dumps(rows))
     print(f"{'parts':<58} {'n':>5} {'read right':>10}")
