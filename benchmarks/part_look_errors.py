@@ -66,6 +66,7 @@ def part_rows(data: Path, first: int, limit: int, likelihood: bool = False) -> l
                 rows.append({"image": index, "subtype": obj.subtype, "part": name, "body_color": obj.color,
                              "pixels": int(true_part.sum()), "recoloured": style is not None,
                              "truth": 0 if style is None else style_index(style.color, style.material),
+                             "table": evidence.part_style_loglik[k, subtype, p].double().tolist(),
                              "read": int((evidence.part_style_loglik[k, subtype, p].double()
                                           + log_prior).argmax()),
                              "subtype_right": int(evidence.subtype_loglik[k].argmax()) == subtype,
@@ -103,7 +104,7 @@ def main() -> None:
     parser.add_argument("--data", type=Path, required=True)
     parser.add_argument("--first", type=int, default=0)
     parser.add_argument("--limit", type=int, default=60)
-    parser.add_argument("--rows", type=Path, default=None, help="Also write every part's row here (JSON).")
+    parser.add_argument("--rows", type=Path, default=None, help="Also write every part's row here (JSON; with the slot's 17 log-likelihoods, to fit a scale).")
     parser.add_argument("--likelihood", action="store_true", help="Read the table's arg-max, without the priors.")
     args = parser.parse_args()
     torch.set_num_threads(1)
