@@ -103,15 +103,17 @@ def record_metrics(name: str, key: str, metrics: Mapping[str, Any], directory: P
 
 @contextlib.contextmanager
 def _manifest_lock(directory: Path) -> Iterator[None]:
-    """Hold an exclusive lock on ``directory``'s manifest while it is read, changed and replaced: models trained
-    in parallel (``po3d train all --jobs 2``) write their entries into one manifest, and an unlocked
-    read-modify-write would drop an entry written in between."""
-    with open(directory / ".manifest.lock", "a") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(lock, fcntl.LOCK_UN)
+    """Hold an exclusive lock on ``directory`` while its manifest is read, changed and replaced: models trained
+    in parallel (``po3d train all``'s parser members) write their entries into one manifest, and an unlocked
+    read-modify-write would drop an entry written in between. The lock is on the directory itself (``flock`` on
+    its descriptor), so no lock file is left among the models."""
+    descriptor = os.open(directory, os.O_RDONLY)
+    try:
+        fcntl.flock(descriptor, fcntl.LOCK_EX)
+        yield
+    finally:
+        fcntl.flock(descriptor, fcntl.LOCK_UN)
+        os.close(descriptor)
 
 
 def _write_manifest(manifest: Mapping[str, Any], directory: Path) -> None:

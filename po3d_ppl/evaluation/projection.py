@@ -4,11 +4,13 @@ against ground truth, which is read here only.
 Entries are those :mod:`po3d_ppl.evaluation.evidence_scores` scores: proposals matched to objects (box IoU >= 0.5),
 the true subtype's part slots, ordered pairs of matched objects. Each table gets ``sigmoid(a * logodds + b)``
 fitted by maximum likelihood (:func:`~po3d_ppl.evaluation.objects.fit_platt`), and its ECE (15 bins, the event's
-probability against its frequency) before and after.
+probability against its frequency) before and after. The part-look table gets one scale on its log-likelihoods
+(:func:`fit_style_scale`), over the visible parts of the true subtype's slots.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 
 import numpy as np
@@ -17,7 +19,7 @@ import torch
 from po3d_ppl import ontology
 from po3d_ppl.evaluation.calibration import binned_calibration_error
 from po3d_ppl.evaluation.objects import fit_platt, match_boxes
-from po3d_ppl.perception.projection_calibration import TABLES, ProjectionCalibration
+from po3d_ppl.perception.projection_calibration import STYLE_TABLE, TABLES, ProjectionCalibration
 
 
 def table_entries(evidence, scene, min_iou: float = 0.5) -> dict[str, tuple[list[float], list[bool]]]:
@@ -50,14 +52,42 @@ def table_entries(evidence, scene, min_iou: float = 0.5) -> dict[str, tuple[list
     return out
 
 
+def style_entries(evidence, scene, min_iou: float = 0.5) -> tuple[list[list[float]], list[int]]:
+    """The part-look log-likelihoods [17] of every visible part of the matched objects (their true subtype's slot)
+    and the index of its true look (0 plain)."""
+    from po3d_ppl.evidence import style_index
+    from po3d_ppl.perception.simulated import part_visible
+
+    tables, truths = [], []
+    objs = scene.objects
+    boxes = np.array([o.annotation.bbox for o in objs], dtype=np.float64).reshape(-1, 4)
+    for i, j in match_boxes(evidence.boxes.numpy(), boxes, min_iou):
+        o = objs[j]
+        s = ontology.SUBTYPES.index(o.subtype)
+        for p, raw in enumerate(ontology.PARTS[o.subtype]):
+            if part_visible(o, raw):
+                style = o.parts.get(raw)
+                tables.append(evidence.part_style_loglik[i, s, p].double().tolist())
+                truths.append(0 if style is None else style_index(style.color, style.material))
+    return tables, truths
+
+
 def collect(pairs: Iterable[tuple[object, object]]) -> dict[str, tuple[torch.Tensor, torch.Tensor]]:
-    """Every table's (log-odds, truth) over ``(evidence, scene)`` pairs."""
+    """Every binary table's (log-odds, truth) over ``(evidence, scene)`` pairs, and under ``STYLE_TABLE`` the
+    part looks' (log-likelihoods ``[M, 17]``, true look ``[M]``)."""
     values: dict[str, tuple[list[float], list[bool]]] = {name: ([], []) for name in TABLES}
+    looks: tuple[list[list[float]], list[int]] = ([], [])
     for evidence, scene in pairs:
         for name, (x, y) in table_entries(evidence, scene).items():
             values[name][0].extend(x)
             values[name][1].extend(y)
-    return as_tensors(values)
+        tables, truths = style_entries(evidence, scene)
+        looks[0].extend(tables)
+        looks[1].extend(truths)
+    out = as_tensors(values)
+    if looks[1]:
+        out[STYLE_TABLE] = (torch.tensor(looks[0], dtype=torch.float64), torch.tensor(looks[1], dtype=torch.long))
+    return out
 
 
 def as_tensors(values: dict[str, tuple[list[float], list[bool]]]) -> dict[str, tuple[torch.Tensor, torch.Tensor]]:
@@ -75,10 +105,55 @@ def table_figures(logodds: torch.Tensor, truth: torch.Tensor) -> dict[str, float
             "accuracy": round(float(((p > 0.5) == truth).double().mean()), 4)}
 
 
+def style_log_posterior(tables: torch.Tensor, recoloured: float, scale: float = 1.0) -> torch.Tensor:
+    """``log P(look | table)`` ``[M, 17]`` for part-look log-likelihoods times ``scale`` under the prior the scene
+    model puts on them: plain ``1 - recoloured``, each of the 16 looks ``recoloured / 16``."""
+    prior = torch.full((tables.shape[-1],), math.log(recoloured / (tables.shape[-1] - 1)), dtype=torch.float64)
+    prior[0] = math.log(1.0 - recoloured)
+    return torch.log_softmax(tables.double() * scale + prior, dim=-1)
+
+
+def style_figures(tables: torch.Tensor, truth: torch.Tensor, recoloured: float, scale: float = 1.0) -> dict:
+    """NLL of the true look and accuracy of the posterior's arg-max (all parts, plain ones, recoloured ones)."""
+    log_post = style_log_posterior(tables, recoloured, scale)
+    hit = log_post.argmax(-1) == truth
+    plain = truth == 0
+    return {"parts": int(truth.numel()), "recoloured_rate": round(float((~plain).double().mean()), 4),
+            "nll": round(float(-log_post.gather(1, truth[:, None]).mean()), 4),
+            "accuracy": round(float(hit.double().mean()), 4),
+            "accuracy_plain": round(float(hit[plain].double().mean()), 4) if plain.any() else None,
+            "accuracy_recoloured": round(float(hit[~plain].double().mean()), 4) if (~plain).any() else None}
+
+
+def fit_style_scale(tables: torch.Tensor, truth: torch.Tensor, low: float = 0.25, high: float = 8.0) -> float:
+    """The scale in [low, high] (a log-spaced grid, then a finer one around the best) minimising the NLL of the
+    true looks under the parts' own rate of recoloured parts (the prior the scene model will multiply in)."""
+    recoloured = float((truth > 0).double().mean())
+
+    def best(grid: torch.Tensor) -> float:
+        nll = [float(-style_log_posterior(tables, recoloured, float(a)).gather(1, truth[:, None]).mean())
+               for a in grid]
+        return float(grid[int(np.argmin(nll))])
+
+    coarse = best(torch.logspace(math.log10(low), math.log10(high), 61, dtype=torch.float64))
+    step = (high / low) ** (1.0 / 60)
+    return best(torch.logspace(math.log10(coarse / step), math.log10(coarse * step), 21, dtype=torch.float64))
+
+
 def fit_projection_calibration(entries: dict[str, tuple[torch.Tensor, torch.Tensor]]
                                ) -> tuple[ProjectionCalibration, dict]:
-    """The Platt scaling of every table with both outcomes present, and each table's figures before and after."""
+    """The Platt scaling of every binary table with both outcomes present, the part-look scale (when
+    ``STYLE_TABLE`` entries hold recoloured and plain parts), and each table's figures before and after."""
     platt, base_rate, report = {}, {}, {}
+    entries = dict(entries)
+    style_scale = None
+    looks = entries.pop(STYLE_TABLE, None)
+    if looks is not None and 0 < int((looks[1] > 0).sum()) < looks[1].numel():
+        tables, truth = looks
+        recoloured = float((truth > 0).double().mean())
+        style_scale = fit_style_scale(tables, truth)
+        report[STYLE_TABLE] = {"before": style_figures(tables, truth, recoloured), "scale": round(style_scale, 4),
+                               "after": style_figures(tables, truth, recoloured, style_scale)}
     for name, (x, y) in entries.items():
         before = table_figures(x, y) if y.numel() else {"entries": 0}
         if y.numel() == 0 or y.all() or not y.any():
@@ -89,7 +164,7 @@ def fit_projection_calibration(entries: dict[str, tuple[torch.Tensor, torch.Tens
         base_rate[name] = float(y.double().mean())
         report[name] = {"before": before, "scale": round(a, 4), "bias": round(b, 4),
                         "after": table_figures(x * a + b, y)}
-    return ProjectionCalibration(platt, base_rate), report
+    return ProjectionCalibration(platt, base_rate, style_scale), report
 
 
 def measure(calibration: ProjectionCalibration | None, entries: dict[str, tuple[torch.Tensor, torch.Tensor]]
@@ -97,7 +172,7 @@ def measure(calibration: ProjectionCalibration | None, entries: dict[str, tuple[
     """Each table's figures as they are and (with ``calibration``) after it, on entries of another split."""
     out = {}
     for name, (x, y) in entries.items():
-        if y.numel() == 0:
+        if y.numel() == 0 or name == STYLE_TABLE:
             continue
         row = {"raw": table_figures(x, y)}
         if calibration is not None and name in calibration.platt:

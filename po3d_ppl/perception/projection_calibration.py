@@ -1,4 +1,5 @@
-"""Calibration of the projected tables: one Platt scaling (``a * logodds + b``) per binary table of the evidence.
+"""Calibration of the projected tables: one Platt scaling (``a * logodds + b``) per binary table of the evidence,
+and one scale on the part-look table's log-likelihoods.
 
 The projection (:mod:`po3d_ppl.perception.scene_parser`) reads "part p is visible", "object i is occluded by j"
 and so on off renderings of its hypotheses and squashes their weighted frequency into log-odds with a fixed floor
@@ -15,6 +16,12 @@ so the evidence must be a likelihood ratio: the fitted base rate's log-odds are 
 (:meth:`ProjectionCalibration.proposal_priors`, applied wherever image evidence is reasoned over), so the posterior
 of an entry is the fitted one instead of counting a base rate twice (with the hand-set part-occluder prior 0.05
 that double count pushed every part-occlusion posterior down by 3 nats).
+
+**The part-look table** (``part_style_loglik``: plain, or one of 16 colour-material looks) is read by the
+attribute network through projected part masks, so its confidence depends on where the parts land. One scale on
+its log-likelihoods is fitted by the negative log-likelihood of the true look under the validation parts' own
+rate of recoloured parts (the scene model multiplies the table by that prior): on seed 712 it is 1.22, the table
+was under-confident, and "recoloured" lost to the prior even for well-placed parts (docs/perception.md).
 """
 
 from __future__ import annotations
@@ -38,6 +45,8 @@ RETRAIN = "refit it with `po3d train projection --data VAL` (a validation datase
 #: The binary tables of the contract that the projection fills.
 TABLES = ("occluded_logodds", "occludes_logodds", "part_visible_logodds", "part_occluded_logodds",
           "part_occludes_logodds")
+#: The categorical table scaled as a whole (one scale on its log-likelihoods).
+STYLE_TABLE = "part_style_loglik"
 #: The ``ScenePriors`` field of each table.
 TABLE_PRIOR = {"occluded_logodds": "occluded", "occludes_logodds": "occludes", "part_visible_logodds":
                "part_visible", "part_occluded_logodds": "part_occluded", "part_occludes_logodds": "part_occludes"}
@@ -50,8 +59,13 @@ class ProjectionCalibration:
 
     platt: dict[str, tuple[float, float]] = field(default_factory=dict)
     base_rate: dict[str, float] = field(default_factory=dict)
+    #: Multiplies ``part_style_loglik`` (None: left as it is).
+    style_scale: float | None = None
 
     def __post_init__(self) -> None:
+        if self.style_scale is not None and not (math.isfinite(self.style_scale) and self.style_scale > 0):
+            raise InputError("ProjectionCalibration", f"the part-look scale must be finite and > 0, got "
+                                                      f"{self.style_scale}")
         for name, (scale, bias) in self.platt.items():
             if name not in TABLES:
                 raise InputError("ProjectionCalibration", f"unknown table {name!r} (known: {', '.join(TABLES)})")
@@ -85,6 +99,8 @@ class ProjectionCalibration:
             if name == "occludes_logodds" and table.numel():
                 scaled = scaled * (1 - torch.eye(table.shape[0], dtype=table.dtype, device=table.device))
             changes[name] = scaled
+        if self.style_scale is not None:
+            changes[STYLE_TABLE] = evidence.part_style_loglik * self.style_scale
         return dataclasses.replace(evidence, **changes)
 
     def save(self, directory: Path) -> Path:
@@ -93,13 +109,18 @@ class ProjectionCalibration:
         path = Path(directory) / WEIGHTS
         tensors = {name: torch.tensor([*values, self.base_rate.get(name, 0.5)], dtype=torch.float64)
                    for name, values in self.platt.items()}
+        if self.style_scale is not None:
+            tensors[STYLE_TABLE] = torch.tensor([self.style_scale], dtype=torch.float64)
         save_file(tensors, str(path), metadata={"format": FORMAT})
         path.chmod(0o644)
         return path
 
     def to_dict(self) -> dict[str, list[float]]:
-        """``{table: [scale, bias, base_rate]}``."""
-        return {name: [*values, self.base_rate.get(name)] for name, values in self.platt.items()}
+        """``{table: [scale, bias, base_rate]}``, and ``{"part_style_loglik": [scale]}`` when fitted."""
+        out = {name: [*values, self.base_rate.get(name)] for name, values in self.platt.items()}
+        if self.style_scale is not None:
+            out[STYLE_TABLE] = [self.style_scale]
+        return out
 
 
 def load_projection_calibration(directory: Path | str | None = None) -> ProjectionCalibration | None:
@@ -111,7 +132,10 @@ def load_projection_calibration(directory: Path | str | None = None) -> Projecti
         return None
     path, _, tensors = load_tensors(MODEL_NAME, directory, RETRAIN, FORMAT)
     try:
-        return ProjectionCalibration({name: (float(v[0]), float(v[1])) for name, v in tensors.items()},
-                                     {name: float(v[2]) for name, v in tensors.items()})
+        binary = {name: v for name, v in tensors.items() if name != STYLE_TABLE}
+        style = tensors.get(STYLE_TABLE)
+        return ProjectionCalibration({name: (float(v[0]), float(v[1])) for name, v in binary.items()},
+                                     {name: float(v[2]) for name, v in binary.items()},
+                                     None if style is None else float(style[0]))
     except (ValueError, IndexError, TypeError, InputError) as exc:
         raise ModelFileError(f"cannot load the projection calibration from {path} ({exc}); {RETRAIN}") from None
