@@ -26,9 +26,9 @@ IOU_EDGES = (0.0, 0.25, 0.5, 0.75, 1.0001)
 
 def part_rows(data: Path, first: int, limit: int, likelihood: bool = False) -> list[dict]:
     from po3d_ppl import ontology
-    from po3d_ppl.evidence import NUM_STYLES
+    from po3d_ppl.evaluation.projection import style_log_prior
+    from po3d_ppl.evidence import NUM_STYLES, style_index
     from po3d_ppl.perception.priors import load_priors
-    from po3d_ppl.evidence import style_index
     from po3d_ppl.perception.scene_parser import ImageParser
     from po3d_ppl.questions.dataset import BuildConfig, load_dataset, scene_seeds
     from po3d_ppl.world.generate import generate_scene
@@ -38,11 +38,8 @@ def part_rows(data: Path, first: int, limit: int, likelihood: bool = False) -> l
     config["split_fractions"] = tuple(config["split_fractions"])
     scene_config = BuildConfig(**config).scene_config()
     parser = ImageParser.load()
-    recoloured = load_priors().part_recoloured
-    log_prior = torch.full((NUM_STYLES,), float(np.log(recoloured / (NUM_STYLES - 1))))
-    log_prior[0] = float(np.log(1 - recoloured))
-    if likelihood:
-        log_prior.zero_()
+    log_prior = torch.zeros(NUM_STYLES, dtype=torch.float64) if likelihood else \
+        style_log_prior(load_priors().part_recoloured)
     rows = []
     for index in range(first, min(first + limit, len(dataset.public_scenes))):
         truth = generate_scene(scene_seeds(dataset.manifest["seed"], index)[0], scene_config, image_index=index)
@@ -63,12 +60,11 @@ def part_rows(data: Path, first: int, limit: int, likelihood: bool = False) -> l
                     continue
                 style = obj.parts.get(name)
                 shown = (parsed.object_ids == k) & (parsed.part_ids == p)
+                table = evidence.part_style_loglik[k, subtype, p].double()
                 rows.append({"image": index, "subtype": obj.subtype, "part": name, "body_color": obj.color,
                              "pixels": int(true_part.sum()), "recoloured": style is not None,
                              "truth": 0 if style is None else style_index(style.color, style.material),
-                             "table": evidence.part_style_loglik[k, subtype, p].double().tolist(),
-                             "read": int((evidence.part_style_loglik[k, subtype, p].double()
-                                          + log_prior).argmax()),
+                             "table": table.tolist(), "read": int((table + log_prior).argmax()),
                              "subtype_right": int(evidence.subtype_loglik[k].argmax()) == subtype,
                              "iou": float(np.logical_and(shown, true_part).sum()
                                           / max(1, np.logical_or(shown, true_part).sum()))})
@@ -104,7 +100,8 @@ def main() -> None:
     parser.add_argument("--data", type=Path, required=True)
     parser.add_argument("--first", type=int, default=0)
     parser.add_argument("--limit", type=int, default=60)
-    parser.add_argument("--rows", type=Path, default=None, help="Also write every part's row here (JSON; with the slot's 17 log-likelihoods, to fit a scale).")
+    parser.add_argument("--rows", type=Path, default=None,
+                        help="Also write every part's row here (JSON, with the slot's 17 log-likelihoods).")
     parser.add_argument("--likelihood", action="store_true", help="Read the table's arg-max, without the priors.")
     args = parser.parse_args()
     torch.set_num_threads(1)

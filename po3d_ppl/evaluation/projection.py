@@ -17,9 +17,20 @@ import numpy as np
 import torch
 
 from po3d_ppl import ontology
+from po3d_ppl.evidence import NUM_STYLES
 from po3d_ppl.evaluation.calibration import binned_calibration_error
 from po3d_ppl.evaluation.objects import fit_platt, match_boxes
 from po3d_ppl.perception.projection_calibration import STYLE_TABLE, TABLES, ProjectionCalibration
+
+
+def _matched(evidence, scene, min_iou: float):
+    """(proposal, object, subtype index) of every proposal matched to an object (box IoU >= ``min_iou``), and the
+    proposal of each matched object."""
+    objs = scene.objects
+    boxes = np.array([o.annotation.bbox for o in objs], dtype=np.float64).reshape(-1, 4)
+    pairs = match_boxes(evidence.boxes.numpy(), boxes, min_iou)
+    proposal_of = {j: i for i, j in pairs}
+    return [(i, objs[j], j, ontology.SUBTYPES.index(objs[j].subtype)) for i, j in pairs], proposal_of
 
 
 def table_entries(evidence, scene, min_iou: float = 0.5) -> dict[str, tuple[list[float], list[bool]]]:
@@ -32,13 +43,8 @@ def table_entries(evidence, scene, min_iou: float = 0.5) -> dict[str, tuple[list
         out[name][0].append(float(value))
         out[name][1].append(bool(truth))
 
-    objs = scene.objects
-    boxes = np.array([o.annotation.bbox for o in objs], dtype=np.float64).reshape(-1, 4)
-    pairs = match_boxes(evidence.boxes.numpy(), boxes, min_iou)
-    proposal_of = {j: i for i, j in pairs}
-    for i, j in pairs:
-        o = objs[j]
-        s = ontology.SUBTYPES.index(o.subtype)
+    matched, proposal_of = _matched(evidence, scene, min_iou)
+    for i, o, j, s in matched:
         add("occluded_logodds", evidence.occluded_logodds[i], o.occluded)
         others = [(k, proposal_of[k]) for k in proposal_of if k != j]
         for k, other in others:
@@ -59,11 +65,7 @@ def style_entries(evidence, scene, min_iou: float = 0.5) -> tuple[list[list[floa
     from po3d_ppl.perception.simulated import part_visible
 
     tables, truths = [], []
-    objs = scene.objects
-    boxes = np.array([o.annotation.bbox for o in objs], dtype=np.float64).reshape(-1, 4)
-    for i, j in match_boxes(evidence.boxes.numpy(), boxes, min_iou):
-        o = objs[j]
-        s = ontology.SUBTYPES.index(o.subtype)
+    for i, o, _, s in _matched(evidence, scene, min_iou)[0]:
         for p, raw in enumerate(ontology.PARTS[o.subtype]):
             if part_visible(o, raw):
                 style = o.parts.get(raw)
@@ -105,12 +107,18 @@ def table_figures(logodds: torch.Tensor, truth: torch.Tensor) -> dict[str, float
             "accuracy": round(float(((p > 0.5) == truth).double().mean()), 4)}
 
 
-def style_log_posterior(tables: torch.Tensor, recoloured: float, scale: float = 1.0) -> torch.Tensor:
-    """``log P(look | table)`` ``[M, 17]`` for part-look log-likelihoods times ``scale`` under the prior the scene
-    model puts on them: plain ``1 - recoloured``, each of the 16 looks ``recoloured / 16``."""
-    prior = torch.full((tables.shape[-1],), math.log(recoloured / (tables.shape[-1] - 1)), dtype=torch.float64)
+def style_log_prior(recoloured: float, styles: int = NUM_STYLES) -> torch.Tensor:
+    """The scene model's prior over a visible part's looks: plain ``1 - recoloured``, each recoloured look
+    ``recoloured / (styles - 1)``."""
+    prior = torch.full((styles,), math.log(recoloured / (styles - 1)), dtype=torch.float64)
     prior[0] = math.log(1.0 - recoloured)
-    return torch.log_softmax(tables.double() * scale + prior, dim=-1)
+    return prior
+
+
+def style_log_posterior(tables: torch.Tensor, recoloured: float, scale: float = 1.0) -> torch.Tensor:
+    """``log P(look | table)`` ``[M, 17]`` for part-look log-likelihoods times ``scale`` under
+    :func:`style_log_prior`."""
+    return torch.log_softmax(tables.double() * scale + style_log_prior(recoloured, tables.shape[-1]), dim=-1)
 
 
 def style_figures(tables: torch.Tensor, truth: torch.Tensor, recoloured: float, scale: float = 1.0) -> dict:
@@ -126,18 +134,13 @@ def style_figures(tables: torch.Tensor, truth: torch.Tensor, recoloured: float, 
 
 
 def fit_style_scale(tables: torch.Tensor, truth: torch.Tensor, low: float = 0.25, high: float = 8.0) -> float:
-    """The scale in [low, high] (a log-spaced grid, then a finer one around the best) minimising the NLL of the
-    true looks under the parts' own rate of recoloured parts (the prior the scene model will multiply in)."""
-    recoloured = float((truth > 0).double().mean())
+    """The scale in [low, high] minimising the NLL of the true looks under the parts' own rate of recoloured parts
+    (the prior the scene model will multiply in): one over the temperature that
+    :func:`~po3d_ppl.perception.calibration.fit_temperature` finds with that prior as its offset."""
+    from po3d_ppl.perception.calibration import fit_temperature
 
-    def best(grid: torch.Tensor) -> float:
-        nll = [float(-style_log_posterior(tables, recoloured, float(a)).gather(1, truth[:, None]).mean())
-               for a in grid]
-        return float(grid[int(np.argmin(nll))])
-
-    coarse = best(torch.logspace(math.log10(low), math.log10(high), 61, dtype=torch.float64))
-    step = (high / low) ** (1.0 / 60)
-    return best(torch.logspace(math.log10(coarse / step), math.log10(coarse * step), 21, dtype=torch.float64))
+    prior = style_log_prior(float((truth > 0).double().mean()), tables.shape[-1])
+    return 1.0 / fit_temperature(tables, truth, low=1.0 / high, high=1.0 / low, offset=prior)
 
 
 def fit_projection_calibration(entries: dict[str, tuple[torch.Tensor, torch.Tensor]]

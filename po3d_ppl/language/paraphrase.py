@@ -107,7 +107,6 @@ def paraphrase(words: Sequence[str], vocabulary: Mapping[str, int] | frozenset[s
     """``words`` with every phrase of :data:`PHRASES` and every out-of-vocabulary word of :data:`WORDS` read
     as its replacement (longest phrase first, left to right), and the (original, replacement) pairs. A
     replacement with a word outside ``vocabulary`` is not applied."""
-    words = list(words)
     out: list[str] = []
     rewrites: list[tuple[str, str]] = []
     i = 0
@@ -115,18 +114,11 @@ def paraphrase(words: Sequence[str], vocabulary: Mapping[str, int] | frozenset[s
         for size in range(min(MAX_PHRASE, len(words) - i), 1, -1):
             reading, postposed = _PHRASE_WORDS.get(tuple(words[i:i + size]), (None, False))
             if reading is not None and all(w in vocabulary for w in reading):
-                original = " ".join(words[i:i + size])
-                end = _noun_phrase_end(words, i + size) if postposed else None
-                if end is None:
-                    out.extend(reading)
-                    i += size
-                else:       # the noun phrase first, then the adjective's reading
-                    original = " ".join(words[i:end])
-                    reading = (*words[i + size:end], *reading)
-                    words[i:end] = reading
-                    i += len(reading)
-                    out.extend(reading)
-                rewrites.append((original, " ".join(reading)))
+                end = (_noun_phrase_end(words, i + size) if postposed else None) or i + size
+                reading = (*words[i + size:end], *reading)  # a postposed adjective follows its noun phrase
+                rewrites.append((" ".join(words[i:end]), " ".join(reading)))
+                out.extend(reading)
+                i = end
                 break
         else:
             word = words[i]

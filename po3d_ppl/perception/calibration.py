@@ -58,9 +58,10 @@ class TableCalibration:
 
 
 def fit_temperature(logits: torch.Tensor, labels: torch.Tensor, low: float = 0.25, high: float = 1000.0,
-                    steps: int = 201) -> float:
+                    steps: int = 201, offset: torch.Tensor | None = None) -> float:
     """The temperature in [low, high] (log-spaced grid, then a finer grid around the best) that minimises the NLL
-    of ``softmax(logits / T)`` (labels -1 are skipped; 1.0 when none is left).
+    of ``softmax(logits / T + offset)`` (labels -1 are skipped; 1.0 when none is left). ``offset``: log-prior
+    terms added after the temperature (a likelihood table scaled under the prior it will be multiplied by).
 
     A grid rather than gradient descent: one scalar, deterministic, no learning rate to tune, and NLL(T) is
     unimodal in log T in practice. The floor ``low`` matters when the validation split has no error at all: the
@@ -73,8 +74,10 @@ def fit_temperature(logits: torch.Tensor, labels: torch.Tensor, low: float = 0.2
     if labels.numel() == 0:
         return 1.0
 
+    shift = torch.zeros((), dtype=torch.float64) if offset is None else offset.double()
+
     def best(grid: torch.Tensor) -> float:
-        nll = torch.stack([F.cross_entropy(logits / t, labels) for t in grid])
+        nll = torch.stack([F.cross_entropy(logits / t + shift, labels) for t in grid])
         return float(grid[int(torch.argmin(nll))])
 
     coarse = best(torch.logspace(math.log10(low), math.log10(high), steps, dtype=torch.float64))
