@@ -122,10 +122,16 @@ SHAPE_VALUES: tuple[str, ...] = SUBTYPES + CATEGORIES
 PARTNAME_VALUES: tuple[str, ...] = RAW_PART_NAMES + tuple(n for n in SUPER_PART_NAMES if n not in RAW_PART_NAMES)
 
 
+def _joined(words: str) -> str:
+    """A name's words with spaces and underscores dropped: "head light" and "headlight" are one word spelt two
+    ways (the world's buses have ``head_light_left``, its cars ``headlight_left``), so they compare equal."""
+    return words.replace(" ", "").replace("_", "")
+
+
 @cache
 def _raw_part_words() -> dict[str, str]:
-    """Raw part name -> its readable words (looked up for every part a filter visits)."""
-    return {name: readable_name(name) for name in RAW_PART_NAMES}
+    """Raw part name -> its readable words, joined (looked up for every part a filter visits)."""
+    return {name: _joined(readable_name(name)) for name in RAW_PART_NAMES}
 
 
 @cache
@@ -185,16 +191,24 @@ def shape_matches(subtype: str, value: str) -> bool:
 def partname_matches(raw: str, value: str) -> bool:
     """``partfilter_partname`` semantics: a part name means its words. ``value`` selects raw part ``raw`` if it
     is ``raw``'s super-part name (``wheel`` selects ``wheel_back_left``) or a raw name that reads the same
-    (``back_left_wheel`` and ``wheel_back_left`` both read "back left wheel" and select both spellings).
+    (``back_left_wheel`` and ``wheel_back_left`` both read "back left wheel" and select both spellings). Spaced
+    and joined forms of a word are the same word: ``headlight_left`` selects a bus's ``head_light_left`` and
+    ``taillight`` a bus's tail lights, since a question says "the left headlight of the bus" either way.
 
     The public code uses a substring test (``'wheel' in 'wheel_front'``): it adds accidents (``'light'`` would
     match ``head_light``) and tells apart raw names that questions verbalise identically, so the question text
     would not determine the program. Matching by words makes both spellings of a name mean the same parts.
     """
-    if value == super_part_name(raw):
+    if _joined(value) == _joined(super_part_name(raw)):
         return True
     words = _raw_part_words().get(value)
     return words is not None and words == _raw_part_words().get(raw)
+
+
+@cache
+def canonical_names_selecting(raw: str) -> tuple[str, ...]:
+    """The canonical part-name values (:data:`CANONICAL_PARTNAME_VALUES`) that select raw part ``raw``."""
+    return tuple(v for v in CANONICAL_PARTNAME_VALUES if partname_matches(raw, v))
 
 
 def part_id(subtype: str, raw: str) -> int:

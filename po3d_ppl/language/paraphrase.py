@@ -54,6 +54,27 @@ WORDS: Mapping[str, str] = MappingProxyType({
     "obstructed": "occluded", "obstructs": "occludes", "obstruct": "occlude", "obstructing": "occluding",
     "concealed": "hidden", "conceals": "hides", "conceal": "hide", "concealing": "hiding",
     "shielded": "hidden", "screened": "hidden", "masked": "hidden", "eclipsed": "hidden",
+    # more attribute nouns, colours, materials and sizes
+    "paint": "color", "paintwork": "color", "livery": "color", "makeup": "material", "variety": "type",
+    **{w: "blue" for w in ("azure", "cerulean", "ultramarine")},
+    **{w: "brown" for w in ("chestnut", "auburn", "rust", "mahogany", "sepia", "umber", "caramel")},
+    **{w: "yellow" for w in ("amber", "mustard", "ochre", "saffron")},
+    **{w: "green" for w in ("mint",)},
+    **{w: "red" for w in ("vermilion", "carmine", "rose", "burgundy")},
+    **{w: "metal" for w in ("tin", "chromium", "steely", "brass")},
+    **{w: "rubber" for w in ("plastic", "nonmetallic", "unshiny")},
+    **{w: "small" for w in ("undersized", "compact", "diminutive", "minuscule", "pint", "dinky")},
+    **{w: "large" for w in ("bulky", "hulking", "whopping", "oversize", "mammoth", "colossal", "immense",
+                            "vast")},
+    # nouns for any object, and shape and part words
+    "figure": "thing", "figures": "things", "toy": "thing", "toys": "things", "piece": "thing",
+    "pieces": "things", "article": "object", "articles": "objects",
+    "mpv": "minivan", "mpvs": "minivans", "vespa": "scooter", "vespas": "scooters", "atb": "mountain bike",
+    "lorry": "truck", "lorries": "trucks",
+    "rim": "wheel", "rims": "wheels", "handgrip": "handle", "handgrips": "handles", "grip": "handle",
+    "grips": "handles", "hatch": "trunk", "tailgate": "trunk", "rooftop": "roof",
+    # positions
+    "before": "in front of",
 })
 
 #: phrase -> its reading, wherever it occurs (every phrase absent from the training corpus).
@@ -71,6 +92,32 @@ PHRASES: Mapping[str, str] = MappingProxyType({
     "hidden from view": "hidden",
     "can you find": "is there", "can you spot": "is there",
     "would you say": "",
+    "hidden from sight": "hidden",
+    # positions said as comparisons
+    **{f"{lead} {side} of": f"to the {side} of" for lead in ("off to the", "over to the", "away to the")
+       for side in ("left", "right")},
+    **{f"{more} {side} than": f"{side} of" for more in ("further", "farther", "more to the", "further to the",
+                                                           "farther to the")
+       for side in ("left", "right")},
+    "out in front of": "in front of", "further back than": "behind", "farther back than": "behind",
+    "further forward than": "in front of",
+    # colours, materials and shapes said in several words
+    **{p: "cyan" for p in ("blue green", "greenish blue", "bluish green", "sea green")},
+    **{p: "matte" for p in ("not shiny", "non reflective")},
+    "make up": "material", "paint colour": "color", "paint color": "color", "shade of paint": "color",
+    "all terrain bike": "mountain bike", "all terrain bicycle": "mountain bike",
+    **{p: "tandem bike" for p in ("two seater bike", "two seater bicycle", "two seat bike", "bicycle built for two",
+                                  "bike built for two", "bicycle for two", "bike for two")},
+    **{p: "articulated bus" for p in ("two section bus", "jointed bus", "hinged bus", "accordion bus")},
+    **{p: "fighter jet" for p in ("combat jet", "combat plane")},
+    "jumbo jet": "airliner", "motor car": "car", "motor cars": "cars", "passenger car": "car",
+    "passenger cars": "cars", "shooting brake": "station wagon", "people mover": "people carrier",
+    "hand grip": "handle", "hand grips": "handles", "rear hatch": "trunk", "bumper bar": "bumper",
+    "piece of": "part of", "pieces of": "parts of",
+    # comparisons
+    "coloured like": "the same color as", "colored like": "the same color as",
+    "made of the same thing": "made of the same material", "made from the same thing": "made of the same material",
+    "outnumbered by": "fewer than",
 })
 
 #: Adjectives before a noun phrase that the corpus says after it ("the left-facing red car" -> "the red car facing
