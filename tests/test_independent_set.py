@@ -1,4 +1,4 @@
-"""The independent question sets (tests/data/independent_questions, _v2, _v3 and _v4): every
+"""The independent question sets (tests/data/independent_questions, _v2, _v3, _v4 and _v5): every
 record's program parses, type-checks and gives the stored answer on its stored scene with the reference executor.
 
 The sets are for evaluation only (never training or model selection); see their READMEs.
@@ -21,7 +21,7 @@ from po3d_ppl.world import load_scene
 ROOT = Path(__file__).resolve().parent / "data"
 #: set folder -> the least number of records it must hold
 SETS = {"independent_questions": 300, "independent_questions_v2": 1500, "independent_questions_v3": 1500,
-        "independent_questions_v4": 1500}
+        "independent_questions_v4": 1500, "independent_questions_v5": 1500}
 GROUPS = {"core_query", "core_count", "core_exist", "core_compare_attribute", "core_compare_integer",
           "core_same_relate", "core_spatial", "parts", "pose", "occlusion", "part_occlusion", "redundant",
           "synonyms_quirks_typos"}
