@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import os
 import shlex
 import sys
 from pathlib import Path
@@ -188,3 +189,29 @@ def test_full_scale_repeats_the_shipped_commands(tmp_path):
             words = _options(shlex.split(command))
             recorded_builds.add((int(words["--seed"]), int(words["--scenes"])))
     assert built <= recorded_builds
+
+
+def test_a_failed_member_stops_the_others(tmp_path, monkeypatch):
+    """--jobs: when one group's command fails, the processes of the others are terminated, not left training."""
+    import time
+
+    from rich.console import Console
+
+    from po3d_ppl.cli import train_all
+    from po3d_ppl.errors import Po3dError
+
+    pid_file = tmp_path / "slow.pid"
+    scripts = {"slow": f"import os, time; open({str(pid_file)!r}, 'w').write(str(os.getpid())); time.sleep(60)",
+               "fails": "import time, sys; time.sleep(1); sys.exit(3)"}
+    monkeypatch.setattr(train_all, "_command", lambda step: [sys.executable, "-c", scripts[step.group]])
+    steps = [train_all.Step(label=group, fn=print, kwargs={}, words=["po3d", group], group=group)
+             for group in scripts]
+    start = time.perf_counter()
+    with pytest.raises(Po3dError, match="fails failed"):
+        train_all._run_at_once(steps, 2, tmp_path, Console(quiet=True))
+    assert time.perf_counter() - start < 30
+    pid = int(pid_file.read_text())
+    with pytest.raises(ProcessLookupError):  # terminated and reaped
+        for _ in range(50):
+            os.kill(pid, 0)
+            time.sleep(0.1)

@@ -431,13 +431,20 @@ def train_all(data: Path, out: Path, *, seed: int = 0, scale: str = "full", stag
     return report
 
 
+def _command(step: Step) -> list[str]:
+    """The process that runs ``step`` (this interpreter, the step's command line)."""
+    return [sys.executable, "-c", "from po3d_ppl.cli import main; main()", *step.words[1:]]
+
+
 def _run_at_once(steps: list[Step], jobs: int, out: Path, console) -> list[dict]:
     """Run the groups of ``steps`` (each group's steps in order, in a process of its own: the command line the
     step prints) ``jobs`` at a time, their output in ``out/logs/GROUP.log``; one progress line per group. Why
     processes: each member trains on its own thread(s), so the three members of the shipped ensemble share the
     two cores instead of leaving one idle (measured in docs/architecture.md). A failed command stops the chain with its log's
-    last lines."""
-    from concurrent.futures import ThreadPoolExecutor
+    last lines, and so do Ctrl-C and SIGTERM: the processes still running are terminated, none is left training."""
+    import signal
+    import threading
+    from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
 
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
@@ -452,6 +459,10 @@ def _run_at_once(steps: list[Step], jobs: int, out: Path, console) -> list[dict]
         console.print("$ " + shlex.join(step.words), markup=False, highlight=False, style="dim", soft_wrap=True)
     console.print(f"{len(groups)} groups, {jobs} at a time; logs in {logs}", markup=False, highlight=False)
 
+    running: set[subprocess.Popen] = set()
+    lock = threading.Lock()
+    stopping = threading.Event()
+
     def run_group(name: str, tasks: dict, progress) -> list[dict]:
         records = []
         log = logs / f"{name}.log"
@@ -459,11 +470,17 @@ def _run_at_once(steps: list[Step], jobs: int, out: Path, console) -> list[dict]
             for step in groups[name]:
                 progress.update(tasks[name], description=f"{name}: {step.label}")
                 start = time.perf_counter()
-                done = subprocess.run([sys.executable, "-c", "from po3d_ppl.cli import main; main()",
-                                       *step.words[1:]], stdout=handle, stderr=subprocess.STDOUT)
-                if done.returncode != 0:
+                with lock:
+                    if stopping.is_set():
+                        raise Po3dError(f"{name}: stopped before {step.label}")
+                    process = subprocess.Popen(_command(step), stdout=handle, stderr=subprocess.STDOUT)
+                    running.add(process)
+                returncode = process.wait()
+                with lock:
+                    running.discard(process)
+                if returncode != 0:
                     tail = log.read_text(errors="replace").strip().splitlines()[-8:]
-                    raise Po3dError(f"{step.label} failed (exit {done.returncode}): {shlex.join(step.words)}\n"
+                    raise Po3dError(f"{step.label} failed (exit {returncode}): {shlex.join(step.words)}\n"
                                     + "\n".join(tail) + f"\n(full output: {log})")
                 records.append({"step": step.label, "command": shlex.join(step.words),
                                 "seconds": round(time.perf_counter() - start, 1), "cpu_seconds": None,
@@ -471,11 +488,35 @@ def _run_at_once(steps: list[Step], jobs: int, out: Path, console) -> list[dict]
         progress.update(tasks[name], description=f"{name}: done", completed=1)
         return records
 
-    with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=console) as bar:
-        tasks = {name: bar.add_task(f"{name}: waiting", total=1) for name in groups}
-        with ThreadPoolExecutor(max_workers=jobs) as pool:
-            futures = [pool.submit(run_group, name, tasks, bar) for name in groups]
-            return [record for future in futures for record in future.result()]
+    def stop() -> None:
+        with lock:
+            stopping.set()
+            for process in running:
+                process.terminate()
+
+    def exit_on_sigterm(signum, frame):
+        raise SystemExit(128 + signum)
+
+    in_main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, exit_on_sigterm) if in_main else None
+    try:
+        with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
+                      console=console) as bar:
+            tasks = {name: bar.add_task(f"{name}: waiting", total=1) for name in groups}
+            with ThreadPoolExecutor(max_workers=jobs) as pool:
+                futures = [pool.submit(run_group, name, tasks, bar) for name in groups]
+                try:
+                    finished, _ = wait(futures, return_when=FIRST_EXCEPTION)  # the first failure ends the wait
+                    failed = [future.exception() for future in finished if future.exception() is not None]
+                    if failed:
+                        raise failed[0]
+                    return [record for future in futures for record in future.result()]
+                except BaseException:  # a failed group, Ctrl-C or SIGTERM: leave no member training
+                    stop()
+                    raise
+    finally:
+        if in_main:
+            signal.signal(signal.SIGTERM, previous)
 
 
 def _outputs(stage: str, steps: list[Step], out: Path) -> list[str]:
