@@ -130,8 +130,8 @@ def _joined(words: str) -> str:
 
 @cache
 def _raw_part_words() -> dict[str, str]:
-    """Raw part name -> its readable words, joined (looked up for every part a filter visits)."""
-    return {name: _joined(readable_name(name)) for name in RAW_PART_NAMES}
+    """Raw part name -> its readable words (looked up for every part a filter visits)."""
+    return {name: readable_name(name) for name in RAW_PART_NAMES}
 
 
 @cache
@@ -202,13 +202,18 @@ def partname_matches(raw: str, value: str) -> bool:
     if _joined(value) == _joined(super_part_name(raw)):
         return True
     words = _raw_part_words().get(value)
-    return words is not None and words == _raw_part_words().get(raw)
+    return words is not None and _joined(words) == _joined(_raw_part_words()[raw])
 
 
-@cache
-def canonical_names_selecting(raw: str) -> tuple[str, ...]:
-    """The canonical part-name values (:data:`CANONICAL_PARTNAME_VALUES`) that select raw part ``raw``."""
-    return tuple(v for v in CANONICAL_PARTNAME_VALUES if partname_matches(raw, v))
+def spelt_alike(raw: str, value: str) -> bool:
+    """Whether ``value`` selects raw part ``raw`` *and* is spelt as it: its super-part name, or a raw name with the
+    same words. Narrower than :func:`partname_matches`, which also takes joined forms for spaced ones; the lexicon
+    uses it to choose which spelling a generated program writes (so the training corpus, and the shipped parsers
+    trained on it, stay what they were before joined forms matched)."""
+    if value == super_part_name(raw):
+        return True
+    words = _raw_part_words().get(value)
+    return words is not None and words == _raw_part_words()[raw]
 
 
 def part_id(subtype: str, raw: str) -> int:

@@ -26,17 +26,12 @@ def test_spellings_raw_readable_spaced_joined_and_plurals():
     assert lx.plural_forms("road bike") == ("road bikes",)
 
 
-def test_spellings_of_one_name_share_its_wordings():
-    # a bus's head_light_left and a motorbike's headlight_left are one name spelt two ways: each wording is
-    # written with one of them, and either selects both
-    assert "left headlight" in lx.part_forms("headlight_left")
+def test_a_spelling_two_values_share_is_decided_by_the_category():
+    # the car's head_light_left and the motorbike's headlight_left: "left headlight" is either
     assert "left headlight" not in lx.part_forms("head_light_left")
-    assert "left head light" in lx.part_forms("head_light_left")
-    assert "left headlamp" in lx.part_forms("head_light_left") + lx.part_forms("headlight_left")
-    assert ontology.partname_matches("head_light_left", "headlight_left")
-    assert ontology.partname_matches("headlight_left", "head_light_left")
-    assert ontology.partname_matches("tail_light_right", "taillight")
-    assert not ontology.partname_matches("head_light_left", "headlight_right")
+    assert "left headlight" in lx.part_forms_for_category("head_light_left", "car")
+    assert "left headlight" not in lx.part_forms_for_category("head_light_left", "motorbike")
+    assert "left head light" in lx.part_forms_for_category("headlight_left", "motorbike")
 
 
 def test_answer_words():
@@ -78,6 +73,7 @@ def test_other_names_of_parts_and_shapes():
 
     assert "boot" in lx.part_forms("trunk") and "kickstand" in lx.part_forms("side_stand")
     assert "rear number plate" in lx.part_forms("back_license_plate")
-    assert "left head lamp" in lx.part_forms("head_light_left")  # shared with headlight_left, which means the same
+    assert "left head lamp" not in lx.part_forms("head_light_left")  # shared with the motorbike's value ...
+    assert "left head lamp" in lx.part_forms_for_category("head_light_left", "car")  # ... so the owner decides
     assert "coach" in lx.shape_forms("bus") and "estate car" in lx.shape_forms("wagon")
     assert {"boot", "kickstand", "coach", "entity"} <= lx.lexicon_words()

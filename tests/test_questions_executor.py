@@ -170,6 +170,28 @@ def test_canonical_part_names():
     assert {ontology.readable_name(v) for v in ontology.PARTNAME_VALUES} == set(words)
 
 
+def test_spaced_and_joined_part_names_are_one_word():
+    """A bus has head_light_left and tail_light_*, a cruiser headlight_left: "the left headlight of the bus" names
+    the bus's part whichever spelling the program writes."""
+    s = toy_scene([
+        toy_object("school", "gray", parts={"head_light_left": ("red", "metal"), "tail_light_right": ("blue", "rubber")}),
+        toy_object("cruiser", "green", parts={"headlight_left": ("yellow", "metal")}, position=(2, 0, 0)),
+    ])
+    bus = [N("scene"), N("filter_shape", 0, value="bus"), N("unique", 1), N("object2part", 2)]
+    for spelling in ("head_light_left", "headlight_left"):
+        assert run(s, *bus, N("partfilter_partname", 3, value=spelling), N("unique", 4),
+                   N("partquery_color", 5)).answer == "red"
+    for spelling in ("taillight", "tail_light", "taillight_right", "right_tail_light"):
+        assert run(s, *bus, N("partfilter_partname", 3, value=spelling), N("unique", 4),
+                   N("partquery_color", 5)).answer == "blue"
+    every = [N("scene"), N("object2part", 0), N("partfilter_partname", 1, value="headlight"), N("count", 2)]
+    assert run(s, *every).answer == 2
+    assert not ontology.partname_matches("head_light_left", "headlight_right")
+    # the lexicon's narrower relation: which spelling a generated program writes
+    assert ontology.spelt_alike("head_light_left", "left_head_light")
+    assert not ontology.spelt_alike("head_light_left", "headlight_left")
+
+
 def test_part_names_match_by_words_so_both_spellings_mean_the_same():
     """"back left wheel" is back_left_wheel on cars and wheel_back_left on buses: either spelling selects both."""
     s = toy_scene([

@@ -165,44 +165,28 @@ def _claims() -> dict[str, frozenset[str]]:
 
 
 @cache
-def _selected_parts(value: str) -> frozenset[str]:
-    return frozenset(r for r in ontology.RAW_PART_NAMES if ontology.partname_matches(r, value))
-
-
-@cache
-def _owner(form: str) -> str | None:
-    """The value a form names: its only claimant or, where every claimant selects the same parts (spellings of one
-    name: ``head_light_left`` and ``headlight_left``), the first that has it as a primary form, else the first;
-    None where the claimants mean different parts."""
-    claimants = _claims()[form]
-    if len({_selected_parts(v) for v in claimants}) > 1:
-        return None
-    primary = sorted(v for v in claimants if form in _primary_part_forms(v))
-    return (primary or sorted(claimants))[0]
-
-
-@cache
 def part_forms(value: str) -> tuple[str, ...]:
     """Every wording of a canonical part-name value that names it alone, its readable name first (what answers
-    say). Spellings of one name share their wordings out (``left headlight`` is written ``headlight_left``,
-    ``left head light`` and ``left headlamp`` ``head_light_left``: both select the same parts); a wording values
-    with different parts share is left to :func:`part_forms_for_category`."""
+    say). A spaced or joined variant that another value also reads as (``left headlight`` is the motorbike's
+    ``headlight_left``, ``left head light`` the car's ``head_light_left``) is left to
+    :func:`part_forms_for_category`."""
     claims = _claims()
-    primary = [f for f in _primary_part_forms(value) if _owner(f) == value
-               or (_owner(f) is None and all(f not in _primary_part_forms(v) for v in claims[f] - {value}))]
-    return tuple(primary + [f for f in _secondary_part_forms(value) if _owner(f) == value])
+    primary = [f for f in _primary_part_forms(value) if claims[f] == {value}
+               or all(f not in _primary_part_forms(v) for v in claims[f] - {value})]
+    return tuple(primary + [f for f in _secondary_part_forms(value) if claims[f] == {value}])
 
 
 @cache
 def _categories_of_part(value: str) -> frozenset[str]:
     return frozenset(ontology.CATEGORY_OF[s] for s, parts in ontology.PARTS.items()
-                     if any(ontology.partname_matches(p, value) for p in parts))
+                     if any(ontology.spelt_alike(p, value) for p in parts))
 
 
 @cache
 def part_forms_for_category(value: str, category: str) -> tuple[str, ...]:
-    """Wordings of ``value`` when the owner's category is known: also the wordings it shares with values that
-    select other parts, where none of those is a part of that category."""
+    """Wordings of ``value`` when the owner's category is known: also the spaced/joined spellings that no other
+    value of that category reads as (a car's ``head_light_left`` may be called its "left headlight": the
+    motorbike's value of that spelling is no part of a car)."""
     forms = list(part_forms(value))
     claims = _claims()
     for form in (*_primary_part_forms(value), *_secondary_part_forms(value)):
