@@ -216,6 +216,12 @@ def spelt_alike(raw: str, value: str) -> bool:
     return words is not None and words == _raw_part_words()[raw]
 
 
+@cache
+def canonical_names_selecting(raw: str) -> tuple[str, ...]:
+    """The canonical part-name values (:data:`CANONICAL_PARTNAME_VALUES`) that select raw part ``raw``."""
+    return tuple(v for v in CANONICAL_PARTNAME_VALUES if partname_matches(raw, v))
+
+
 def part_id(subtype: str, raw: str) -> int:
     """Part id of raw part ``raw`` in ``subtype`` (its index in the part list)."""
     try:

@@ -6,9 +6,11 @@ filter programs. Objects are bits of a Python int by index; parts are bits in :a
 parts any program can reach: recoloured or occluded ones). Keys are tuples of values (``None`` = no filter on that
 slot) aligned with a tuple of slot types such as ``("Size", "Color", "Material", "Shape")``.
 
-Part names are indexed under their canonical spelling (``ontology.canonical_part_name``: ``wheel_back_left`` on a
-bus is filed under ``back_left_wheel``, the name that reads the same) and their super-part name, so generated
-programs use one spelling per wording and the program is a function of the question text.
+Part names are indexed under every canonical value that selects them (``ontology.canonical_names_selecting``:
+``wheel_back_left`` on a bus is filed under ``back_left_wheel``, the name that reads the same, and ``wheel``; a bus's
+``head_light_left`` also under ``headlight_left`` and ``headlight``, since spaced and joined forms are one word), so
+generated programs use one spelling per wording, the program is a function of the question text and the index
+agrees with the executor on what is unique.
 
 Under public semantics (``ctx.semantics == "public"``) denotations follow the public rules instead: values are
 the scene's own values (raw part names as they are, and super-part names), a value selects every member whose
@@ -44,7 +46,7 @@ class FilterIndex:
         for p, bit in self.part_bit.items():
             raw = ctx.part_names[p]
             style = ctx.part_style(p)
-            pairs = [("Partname", ontology.canonical_part_name(raw)), ("Partname", ontology.super_part_name(raw))]
+            pairs = [("Partname", value) for value in ontology.canonical_names_selecting(raw)]
             if style is not None:
                 pairs += [("Size", ctx.objects[p[0]].size), ("Color", style.color), ("Material", style.material)]
             for slot, value in pairs:
