@@ -75,7 +75,8 @@ _ATTR_NAME = {"size": ("size",), "color": ("color", "colour"), "material": ("mat
 class Realiser:
     """Writes questions for programs; one instance per random stream."""
 
-    def __init__(self, rng: np.random.Generator, compare_around: bool = False, wording: bool = False):
+    def __init__(self, rng: np.random.Generator, compare_around: bool = False, wording: bool = False,
+                 wording3: bool = False):
         """``compare_around``: say two counts taken around one referent with the referent named once ("Are there
         more cars right of the bus than left of it?"); part of the opt-in ``compare_relate`` corpus families
         (:data:`po3d_ppl.questions.parser_corpus.OPT_IN_FAMILIES`), off by default so the default corpus is
@@ -86,13 +87,22 @@ class Realiser:
         colour?"), two counts around one referent introduced first ("Looking at the bus, are there more cars
         behind it than left of it?", "Does the bus have fewer cars behind it than left of it?"), "stand / sit /
         located" with spatial relations, and a few more everyday shape names. Every random draw it adds happens
-        only when it is on, so the default stream is untouched."""
+        only when it is on, so the default stream is untouched. ``wording3``: the opt-in ``wording3`` frames
+        (from reading dev 4's misses; off by default for the same reason): elliptical comparisons ("The bus and the
+        car: same size?", "Same number of cars and buses?"), unions said with "or" or "plus" ("Does the picture
+        have a car or a bus in it?", "What is the number of cars plus buses?"), "Is part of the car hidden?",
+        "By how many things is the car hidden?", "Does the bus have a red part?"."""
         self.rng = rng
         self.compare_around = compare_around
         self.wording = wording
+        self.wording3 = wording3
         self._said: list[str] = []
 
     # ----- choices ---------------------------------------------------------------------------------------------
+    def more(self, *frames: str) -> tuple[str, ...]:
+        """``frames`` where the ``wording3`` frames are on, else none (so the default stream is untouched)."""
+        return frames if self.wording3 else ()
+
     def pick(self, options):
         return options[int(self.rng.integers(len(options)))] if len(options) > 1 else options[0]
 
@@ -817,16 +827,32 @@ class Realiser:
                                   f"How many {pa} and {pb} are there in total?",
                                   f"How many {pa} and {pb} are there altogether?",
                                   f"Count the {pa} and the {pb}.",
-                                  f"How many objects are {pa} or {pb}?"))
-            return self.pick((f"Are there any {pa} or {pb}?", (f"Is there anything that is either a "
-                              f"{self.np(a, 'indef').removeprefix('a ')} or a {self.np(b, 'indef').removeprefix('a ')}?")))
+                                  f"How many objects are {pa} or {pb}?")
+                             + self.more(f"What is the number of {pa} plus {pb}?", f"How many {pa} plus {pb} are there?",
+                                         f"How many {pa} and {pb} are there combined?",
+                                         f"Count the {pa} and the {pb} together."))
+            frames = (f"Are there any {pa} or {pb}?", (f"Is there anything that is either a "
+                      f"{self.np(a, 'indef').removeprefix('a ')} or a {self.np(b, 'indef').removeprefix('a ')}?"))
+            if self.wording3:
+                sa, sb = self.np(a, "indef"), self.np(b, "indef")
+                where = self.pick(("image", "picture", "scene"))
+                frames += (f"Is there {sa} or {sb}?", f"Is there either {sa} or {sb}?", f"Can you see {sa} or {sb}?",
+                           f"Can you see either {sa} or {sb}?", f"Do you see {sa} or {sb}?",
+                           f"Does the {where} have {sa} or {sb} in it?", f"Does the {where} contain {sa} or {sb}?",
+                           f"Does the {where} show {sa} or {sb}?")
+            return self.pick(frames)
         if not count and _occludee_chain(self.program, target) and self.chance(0.6):
             plain = _Obj(attrs=d.attrs, shape=d.shape, posts=[p for p in d.posts if p not in _OCCLUDED_CLAUSES],
                          other=d.other)
             x = self.np(plain, "def")
             word = self.pick(("occluded", "hidden", "partially hidden", "partly occluded", "blocked from view",
                               "occluded by another object", "covered by something"))
-            return self.pick((f"Is {x} {word}?", f"Is {x} {word}?", f"Is {x} {word} in the picture?"))
+            frames = (f"Is {x} {word}?", f"Is {x} {word}?", f"Is {x} {word} in the picture?")
+            if self.wording3:
+                hidden = self.pick(("hidden", "occluded", "covered", "blocked"))
+                frames += (f"Is part of {x} {hidden}?", f"Is some of {x} {hidden}?", f"Is {x} {hidden} by anything?",
+                           f"Is {x} {hidden} by something?", f"Is {x} {hidden} by another object?")
+            return self.pick(frames)
         if d.via is not None and d.posts and d.union is None and self.chance(0.7 if d.via == "occluding_part" else 0.35):
             direct = self._relation_yes_no(d) if not count else self._relation_count(d)
             if direct is not None:
@@ -904,7 +930,8 @@ class Realiser:
                                   f"Does the {self.pick(('image', 'picture', 'scene', 'photo'))} "
                                   f"{self.pick(('show', 'contain', 'have', 'include'))} any {x}?",
                                   f"Does the {self.pick(('image', 'picture', 'scene'))} show {single}?",
-                                  f"Are any {x} present?", f"Can you see any {x}?", f"Are there any {x} present?"))
+                                  f"Are any {x} present?", f"Can you see any {x}?", f"Are there any {x} present?")
+                                 + self.more(f"Do you see {single}?", f"Can you see {x}?", f"Do you see {x}?"))
 
     def _same_count_exist(self, target: Node, count: bool) -> str:
         """Counts and existence of objects sharing an attribute with a referent, said of the referent (wording2):
@@ -984,7 +1011,8 @@ class Realiser:
         if d.via in ("occluding", "occluding_part") and ref:
             return self.pick((f"How many {rest} is {ref} occluded by?", f"By how many {rest} is {ref} occluded?",
                               f"How many {rest} are occluding {ref}?", f"How many {rest} is {ref} hidden by?",
-                              f"What number of {rest} occlude {ref}?", f"How many {rest} block {ref}?"))
+                              f"What number of {rest} occlude {ref}?", f"How many {rest} block {ref}?")
+                             + self.more(f"By how many {rest} is {ref} hidden?", f"By how many {rest} is {ref} blocked?"))
         if d.via == "occluded_by" and ref:
             return self.pick((f"How many {rest} does {ref} occlude?", f"How many {rest} is {ref} occluding?",
                               f"How many {rest} does {ref} block?", f"How many {rest} does {ref} hide?",
@@ -1056,6 +1084,9 @@ class Realiser:
                       f"Is some part of {o} {state}?"]
             if short:
                 frames += [f"Are any of {o}'s parts {state}?", f"Is any of {o}'s parts {state}?"]
+            if len(state.split()) == 1 and not part.occluded:  # "Does the bus have a red part?"
+                frames += self.more(f"Does {o} have a {state} part?", f"Has {o} got a {state} part?",
+                                    f"Does {o} have any {state} parts?")
             return self.pick(frames)
         if described:
             o = self.np(owner, "def" if part.owner_unique or self.chance(0.7) else "indef")
@@ -1126,6 +1157,7 @@ class Realiser:
                   f"Are {x} and {y} the same in {name}?",
                   f"Does {x} share its {name} with {y}?", f"Is {x}'s {name} the same as {y}'s?"
                   if len(x.split()) <= 4 and len(y.split()) <= 4 and not _has_clause(x + " " + y) else f"Is {x} the same {name} as {y}?"]
+        frames += self.more(f"{x} and {y}: same {name}?", f"{x} and {y}: the same {name}?", f"{x} and {y}, same {name}?")
         if attr == "size":
             frames += [f"Is {x} as big as {y}?", f"Is {x} as large as {y}?", f"Are {x} and {y} equally big?"]
         if attr == "color":
@@ -1199,13 +1231,15 @@ class Realiser:
             frames = [f"Are there fewer {x} than {y}?", f"Are there less {x} than {y}?",
                       f"Is the number of {x} {less} than the number of {y}?",
                       f"Is the number of {x} smaller than that of {y}?", f"Are {x} fewer than {y}?",
-                      f"Do {y} outnumber {x}?" if False else f"Are there fewer {x} than {y}?",
+                      f"Are there fewer {x} than {y}?",
                       f"Is the count of {x} less than the count of {y}?"]
         else:
             frames = [f"Are there the same number of {x} and {y}?", f"Are there as many {x} as {y}?",
                       f"Is the number of {x} the same as the number of {y}?",
                       f"Is the number of {x} equal to the number of {y}?", f"Are there an equal number of {x} and {y}?",
-                      f"Is the number of {x} equal to that of {y}?", f"Do {x} and {y} have the same count?"]
+                      f"Is the number of {x} equal to that of {y}?", f"Do {x} and {y} have the same count?",
+                      *self.more(f"Same number of {x} and {y}?", f"The same number of {x} and {y}?",
+                                 f"Is there an equal count of {x} and {y}?", f"Equal numbers of {x} and {y}?")]
         return self.pick(frames)
 
     def _one_referent(self, a: Node, b: Node) -> bool:
