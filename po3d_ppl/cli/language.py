@@ -17,7 +17,7 @@ _ENSEMBLE_RULE_HELP = ("How an ensemble's members' program log-probabilities com
 _SINGLE_HELP = ("The single parser (manifest entry question_parser) instead of the shipped ensemble (the ablation).")
 _NAME_HELP = ("The parser's name: its files NAME.safetensors and NAME.vocab.json and its manifest entry (an "
               "ensemble member has its own, e.g. question_parser_cr_seed0).")
-_EXTRA_FAMILIES_HELP = ("Add an opt-in family set to the parser corpus (repeatable; known: compare_relate, wording2). Default: "
+_EXTRA_FAMILIES_HELP = ("Add an opt-in family set to the parser corpus (repeatable; known: compare_relate, wording2, wording3). Default: "
                         "none, the corpus the shipped single parser was trained on.")
 
 
