@@ -6,8 +6,8 @@ dataset needed), with and without the unknown-word mechanism.
 Questions: held-out parser-corpus questions (realised phrasings of every family; ``--corpus-seed`` is not a training
 seed), each also with one typo, so the normaliser's work is timed too; or the records of ``--independent``. Per
 question (batch of one, after warm-up) it times ``QuestionParser.parse`` (beam 5, best program, calibrated
-confidence), and the same through the shipped ensemble (``load_question_parser``: every member's beam, then the
-union re-scored under every member), and prints median / p90 wall milliseconds and the median CPU time of the process (on a shared machine
+confidence), and the same through the shipped ensemble (``load_question_parser``: one joint beam over its members,
+each hypothesis scored by every member's decoder), and prints median / p90 wall milliseconds and the median CPU time of the process (on a shared machine
 the wall time grows with the load; the CPU time is what a parse costs). Budget: beam-5 median <= 10 ms.
 """
 

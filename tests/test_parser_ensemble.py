@@ -173,3 +173,25 @@ def test_cli_parses_with_the_shipped_ensemble_or_the_single_parser(shipped_ensem
     assert json.loads(default.output)["confidence"] == pytest.approx(shipped_ensemble.parse(question, n=3).confidence)
     assert [p["tokens"] for p in json.loads(single.output)["programs"]] == [
         c.tokens for c in shipped.parse(question, n=3).candidates]
+
+
+def test_the_joint_beam_scores_each_candidate_as_its_members_do(shipped_ensemble):
+    """The shipped members share their targets, so the ensemble decodes with one joint beam: each candidate's score
+    is the rule applied to the members' own (teacher-forced) log-probabilities of it, and the top programs are
+    the re-scoring path's."""
+    assert shipped_ensemble.joint
+    for question in QUESTIONS:
+        joint = shipped_ensemble.parse(question, n=3)
+        for candidate in joint.candidates:
+            per_member = []
+            for member in shipped_ensemble.members:
+                _, words, ngrams, _, _ = member.encode(question)
+                per_member += sequence_log_probs(member, words, ngrams, [candidate.program])
+            assert candidate.log_prob == pytest.approx(combine(per_member, shipped_ensemble.rule), abs=1e-4)
+        shipped_ensemble.joint = False
+        try:
+            rescored = shipped_ensemble.parse(question, n=3)
+        finally:
+            shipped_ensemble.joint = True
+        assert _tokens(joint)[0] == _tokens(rescored)[0]
+        assert joint.candidates[0].log_prob == pytest.approx(rescored.candidates[0].log_prob, abs=1e-4)
