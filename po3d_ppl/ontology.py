@@ -15,6 +15,7 @@ Conventions:
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from functools import cache
 from importlib import resources
 from types import MappingProxyType
@@ -199,10 +200,7 @@ def partname_matches(raw: str, value: str) -> bool:
     match ``head_light``) and tells apart raw names that questions verbalise identically, so the question text
     would not determine the program. Matching by words makes both spellings of a name mean the same parts.
     """
-    if _joined(value) == _joined(super_part_name(raw)):
-        return True
-    words = _raw_part_words().get(value)
-    return words is not None and _joined(words) == _joined(_raw_part_words()[raw])
+    return _names_alike(raw, value, _joined)
 
 
 def spelt_alike(raw: str, value: str) -> bool:
@@ -210,10 +208,15 @@ def spelt_alike(raw: str, value: str) -> bool:
     same words. Narrower than :func:`partname_matches`, which also takes joined forms for spaced ones; the lexicon
     uses it to choose which spelling a generated program writes (so the training corpus, and the shipped parsers
     trained on it, stay what they were before joined forms matched)."""
-    if value == super_part_name(raw):
+    return _names_alike(raw, value, lambda words: words)
+
+
+def _names_alike(raw: str, value: str, spelling: Callable[[str], str]) -> bool:
+    """``value`` is ``raw``'s super-part name or a raw name with its words, compared as ``spelling`` writes them."""
+    if spelling(value) == spelling(super_part_name(raw)):
         return True
     words = _raw_part_words().get(value)
-    return words is not None and words == _raw_part_words()[raw]
+    return words is not None and spelling(words) == spelling(_raw_part_words()[raw])
 
 
 @cache

@@ -65,8 +65,9 @@ _PARTS_OF_CATEGORY = {
 #: names; no template files of its own), and whether it uses its third (``Realiser.wording3``: from reading dev 4's
 #: misses; no template files either).
 OPT_IN_FAMILIES: dict[str, dict] = {
-    "compare_relate": {"files": ("extra/compare_relate.json",), "compare_around": True, "wording": False},
-    "wording2": {"files": (), "compare_around": False, "wording": True},
+    "compare_relate": {"files": ("extra/compare_relate.json",), "compare_around": True, "wording": False,
+                       "wording3": False},
+    "wording2": {"files": (), "compare_around": False, "wording": True, "wording3": False},
     "wording3": {"files": (), "compare_around": False, "wording": False, "wording3": True},
 }
 
@@ -266,7 +267,7 @@ def iter_corpus(count: int, config: CorpusConfig = CorpusConfig(),
     rng = np.random.default_rng(config.seed)
     realiser = Realiser(rng, compare_around=any(OPT_IN_FAMILIES[n]["compare_around"] for n in config.extra_families),
                         wording=any(OPT_IN_FAMILIES[n]["wording"] for n in config.extra_families),
-                        wording3=any(OPT_IN_FAMILIES[n].get("wording3", False) for n in config.extra_families))
+                        wording3=any(OPT_IN_FAMILIES[n]["wording3"] for n in config.extra_families))
     made = 0
     while made < count:
         template = families[int(rng.integers(len(families)))]

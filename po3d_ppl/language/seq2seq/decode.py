@@ -28,6 +28,24 @@ def _masked_log_softmax(logits: torch.Tensor, allowed: np.ndarray) -> torch.Tens
     return torch.log_softmax(logits.masked_fill(~mask, float("-inf")), dim=-1)
 
 
+def select_extensions(scores: list[float], indices: list[int], vocab: int, active: list, automaton: TypeAutomaton,
+                      beam: int) -> tuple[list[tuple[float, tuple[int, ...], int, int]], list[int], list]:
+    """One beam step's bookkeeping, shared by :func:`beam_search` and the ensemble's joint beam: walk the top
+    extensions (``scores`` best first, ``indices`` into the flattened ``[hypotheses, vocab]`` table) and split
+    them into finished programs ``(score, ids, row, token)`` and, up to ``beam``, the positions kept with their new
+    ``(ids, state)`` hypotheses."""
+    finished, kept, next_active = [], [], []
+    for position, (score, index) in enumerate(zip(scores, indices)):
+        row, token = divmod(index, vocab)
+        ids, state = active[row]
+        if automaton.completes(state, token):
+            finished.append((score, (*ids, token), row, token))
+        elif len(kept) < beam:
+            kept.append(position)
+            next_active.append(((*ids, token), automaton.advance(state, token)))
+    return finished, kept, next_active
+
+
 @torch.inference_mode()
 def beam_search(model: Seq2SeqParser, automaton: TypeAutomaton, words: torch.Tensor, n: int = 1, beam: int = 5,
                 weights: StepWeights | None = None, ngrams: torch.Tensor | None = None,
@@ -50,17 +68,9 @@ def beam_search(model: Seq2SeqParser, automaton: TypeAutomaton, words: torch.Ten
         scores = _masked_log_softmax(logits, allowed).cpu() + active_scores[:, None]
         vocab = scores.shape[1]
         top_scores, top_index = scores.flatten().topk(min(2 * beam, int(allowed.sum())))
-        kept: list[int] = []
-        next_active: list[tuple[tuple[int, ...], DecodeState]] = []
         score_list = top_scores.tolist()
-        for position, (score, index) in enumerate(zip(score_list, top_index.tolist())):
-            row, token = divmod(index, vocab)
-            ids, state = active[row]
-            if automaton.completes(state, token):
-                finished.append(Hypothesis((*ids, token), score))
-            elif len(kept) < beam:
-                kept.append(position)
-                next_active.append(((*ids, token), automaton.advance(state, token)))
+        done, kept, next_active = select_extensions(score_list, top_index.tolist(), vocab, active, automaton, beam)
+        finished += [Hypothesis(ids, score) for score, ids, _, _ in done]
         finished.sort(key=lambda hyp: -hyp.log_prob)
         if not kept or (len(finished) >= n and score_list[kept[0]] <= finished[n - 1].log_prob):
             break

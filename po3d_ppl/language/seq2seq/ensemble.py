@@ -52,7 +52,7 @@ from po3d_ppl.language.ast import Program
 from po3d_ppl.language.satisfiable import unsatisfiable_node
 from po3d_ppl.language.seq2seq.calibrate import CalibrationReport, fit_calibration
 from po3d_ppl.language.seq2seq.data import Example
-from po3d_ppl.language.seq2seq.decode import beam_search
+from po3d_ppl.language.seq2seq.decode import beam_search, select_extensions
 from po3d_ppl.language.seq2seq.model_io import (
     MODEL_NAME,
     Calibration,
@@ -130,11 +130,34 @@ def sequence_log_probs(member: QuestionParser, words: torch.Tensor, ngrams: torc
     return out
 
 
+class MemberDecoders:
+    """The members' decoder steps one after another, for the joint beam (every member extends the same
+    hypotheses): the interface :class:`StackedDecoder` batches, for members whose decoders differ in shape."""
+
+    def __init__(self, members: Sequence[QuestionParser]):
+        self.members = list(members)
+
+    def start(self, starts: Sequence[tuple[torch.Tensor, ...]]) -> tuple:
+        """The decoding context (the members' encoder outputs) and the initial states."""
+        return list(starts), [s[2] for s in starts], [s[3] for s in starts]
+
+    def step(self, tokens: torch.Tensor, h: list, c: list, context: list) -> tuple[torch.Tensor, list, list]:
+        """One step of every member on ``tokens`` ``[R]``: logits ``[M, R, V]`` and the new states."""
+        steps = [member.model.step(member.step_weights, tokens, h[m], c[m], context[m][0], context[m][1])
+                 for m, member in enumerate(self.members)]
+        return torch.stack([s[0] for s in steps]), [s[1] for s in steps], [s[2] for s in steps]
+
+    @staticmethod
+    def keep(states: list, rows: torch.Tensor) -> list:
+        return [state[rows.to(state.device)] for state in states]
+
+
 class StackedDecoder:
     """The members' decoder steps as one batched computation (``bmm`` over a member axis), for the joint beam,
     where every member extends the same hypotheses: at these sizes a step costs its kernel launches, not its
     arithmetic, so three members in one set of kernels take little more than one. Computes what
-    :meth:`Seq2SeqParser.step` computes for each member (up to float rounding)."""
+    :meth:`Seq2SeqParser.step` computes for each member (up to float rounding); same interface as
+    :class:`MemberDecoders`."""
 
     def __init__(self, members: Sequence[QuestionParser]):
         weights = [member.step_weights for member in members]
@@ -153,18 +176,20 @@ class StackedDecoder:
                   for m in members}
         return len(shapes) == 1
 
-    def start(self, starts: Sequence[tuple[torch.Tensor, ...]]) -> tuple[torch.Tensor, ...]:
-        """The members' encoder outputs stacked: memory and keys ``[M, T, H]`` (zero-padded to the longest
-        question reading), the padding mask ``[M, 1, T]`` and the states ``[M, 1, H]``."""
+    def start(self, starts: Sequence[tuple[torch.Tensor, ...]]) -> tuple:
+        """The context: the members' memory and keys ``[M, T, H]`` (zero-padded to the longest question reading)
+        and the padding mask ``[M, 1, T]``; and the stacked initial states ``[M, 1, H]``."""
         length = max(start[0].shape[0] for start in starts)
-        memory = torch.stack([nn_pad(start[0], length) for start in starts])
-        keys = torch.stack([nn_pad(start[1], length) for start in starts])
+        memory = torch.stack([_pad_rows(start[0], length) for start in starts])
+        keys = torch.stack([_pad_rows(start[1], length) for start in starts])
         padding = torch.stack([torch.arange(length, device=memory.device) >= start[0].shape[0] for start in starts])
-        return memory, keys, padding[:, None, :], torch.stack([s[2] for s in starts]), torch.stack([s[3] for s in starts])
+        return ((memory, keys, padding[:, None, :]), torch.stack([s[2] for s in starts]),
+                torch.stack([s[3] for s in starts]))
 
-    def step(self, tokens: torch.Tensor, h: torch.Tensor, c: torch.Tensor, memory: torch.Tensor, keys: torch.Tensor,
-             padding: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    def step(self, tokens: torch.Tensor, h: torch.Tensor, c: torch.Tensor, context: tuple
+             ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """One step of every member on the same ``tokens`` ``[R]``: states ``[M, R, H]`` -> logits ``[M, R, V]``."""
+        memory, keys, padding = context
         gates = torch.baddbmm(self.gate_bias, torch.cat([self.embedding[:, tokens], h], 2), self.gate_weight)
         i, f, g, o = gates.chunk(4, dim=2)
         c = torch.sigmoid(f) * c + torch.sigmoid(i) * torch.tanh(g)
@@ -174,15 +199,19 @@ class StackedDecoder:
         combined = torch.tanh(torch.baddbmm(self.combine_bias, torch.cat([h, context], 2), self.combine_weight))
         return torch.baddbmm(self.output_bias, combined, self.output_weight), h, c
 
+    @staticmethod
+    def keep(states: torch.Tensor, rows: torch.Tensor) -> torch.Tensor:
+        return states[:, rows.to(states.device)]
 
-def nn_pad(rows: torch.Tensor, length: int) -> torch.Tensor:
+
+def _pad_rows(rows: torch.Tensor, length: int) -> torch.Tensor:
     """``rows`` ``[T, H]`` zero-padded to ``[length, H]``."""
     return torch.nn.functional.pad(rows, (0, 0, 0, length - rows.shape[0]))
 
 
 @torch.inference_mode()
 def joint_beam_search(members: Sequence[QuestionParser], starts: Sequence[tuple[torch.Tensor, ...]], n: int,
-                      beam: int, rule: Rule, stacked: StackedDecoder | None = None
+                      beam: int, rule: Rule, decoders: StackedDecoder | MemberDecoders | None = None
                       ) -> list[tuple[tuple[int, ...], list[float]]]:
     """The ``n`` best programs under the ensemble's combined score, found by one beam whose hypotheses carry every
     member's log-probability (members sharing one target vocabulary; ``starts``: their encoder outputs). Each
@@ -190,15 +219,13 @@ def joint_beam_search(members: Sequence[QuestionParser], starts: Sequence[tuple[
     states: the automata differ only in their length budget) and ranks the extensions by the combined score;
     so no candidate is re-scored afterwards. The combined score of a prefix bounds its completions' (each
     member's probability only falls), so the search stops, as :func:`beam_search` does, once no unfinished
-    hypothesis can beat the n-th finished one. ``stacked``: the members' decoders as one batched step (where
-    they have one shape). Returns (token ids, per-member log-probabilities), best first."""
+    hypothesis can beat the n-th finished one. ``decoders``: how the members step (default: one after another;
+    :class:`StackedDecoder` where they have one shape). Returns (token ids, per-member log-probabilities), best
+    first."""
+    decoders = decoders or MemberDecoders(members)
     automaton = members[0].automaton
     log_members = math.log(len(members))
-    if stacked is not None:
-        memory, keys, padding, hidden, cells = stacked.start(starts)
-    else:
-        hidden = [start[2] for start in starts]
-        cells = [start[3] for start in starts]
+    context, hidden, cells = decoders.start(starts)
     active: list[tuple[tuple[int, ...], object]] = [((), automaton.initial())]
     scores = torch.zeros(len(members), 1)
     finished: list[tuple[float, tuple[int, ...], list[float]]] = []
@@ -206,13 +233,7 @@ def joint_beam_search(members: Sequence[QuestionParser], starts: Sequence[tuple[
     for _ in range(automaton.max_len):
         allowed = torch.from_numpy(np.stack([np.stack([member.automaton.allowed(state) for _, state in active])
                                              for member in members]))  # [members, hypotheses, tokens]
-        if stacked is not None:
-            logits, hidden, cells = stacked.step(prev, hidden, cells, memory, keys, padding)
-        else:
-            steps = [member.model.step(member.step_weights, prev, hidden[m], cells[m], starts[m][0], starts[m][1])
-                     for m, member in enumerate(members)]
-            logits = torch.stack([step[0] for step in steps])
-            hidden, cells = [step[1] for step in steps], [step[2] for step in steps]
+        logits, hidden, cells = decoders.step(prev, hidden, cells, context)
         log_probs = torch.log_softmax(logits.masked_fill(~allowed.to(logits.device), float("-inf")), dim=-1)
         table = scores[:, :, None] + log_probs.cpu()  # [members, hypotheses, tokens]
         combined = (torch.logsumexp(table, dim=0) - log_members if rule == "mixture" else table.mean(dim=0))
@@ -222,27 +243,15 @@ def joint_beam_search(members: Sequence[QuestionParser], starts: Sequence[tuple[
         if reachable == 0:
             break
         top_scores, top_index = flat.topk(min(2 * beam, reachable))
-        kept: list[int] = []
-        next_active = []
         score_list = top_scores.tolist()
-        for position, (score, index) in enumerate(zip(score_list, top_index.tolist())):
-            row, token = divmod(index, vocab)
-            ids, state = active[row]
-            if automaton.completes(state, token):
-                finished.append((score, (*ids, token), table[:, row, token].tolist()))
-            elif len(kept) < beam:
-                kept.append(position)
-                next_active.append(((*ids, token), automaton.advance(state, token)))
+        done, kept, next_active = select_extensions(score_list, top_index.tolist(), vocab, active, automaton, beam)
+        finished += [(score, ids, table[:, row, token].tolist()) for score, ids, row, token in done]
         finished.sort(key=lambda item: -item[0])
         if not kept or (len(finished) >= n and score_list[kept[0]] <= finished[n - 1][0]):
             break
         kept_index = torch.tensor(kept)
         rows, tokens = top_index[kept_index] // vocab, top_index[kept_index] % vocab
-        if stacked is not None:
-            hidden, cells = hidden[:, rows.to(hidden.device)], cells[:, rows.to(cells.device)]
-        else:
-            hidden = [h[rows.to(h.device)] for h in hidden]
-            cells = [c[rows.to(c.device)] for c in cells]
+        hidden, cells = decoders.keep(hidden, rows), decoders.keep(cells, rows)
         scores = table[:, rows, tokens]
         prev = tokens.to(prev.device)
         active = next_active
@@ -281,7 +290,8 @@ class ParserEnsemble:
         #: each member's own beam and the union re-scored (the module docstring)
         first = tuple(self.members[0].trained.targets.tokens)
         self.joint = all(tuple(m.trained.targets.tokens) == first for m in self.members)
-        self._stacked = StackedDecoder(self.members) if self.joint and StackedDecoder.fits(self.members) else None
+        self._decoders = (StackedDecoder(self.members) if StackedDecoder.fits(self.members)
+                          else MemberDecoders(self.members))
 
     @classmethod
     def load(cls, directories: Sequence[str | None], rule: Rule = "mixture", device: str | torch.device = "cpu",
@@ -374,9 +384,9 @@ class ParserEnsemble:
         with torch.inference_mode():
             starts = [member.model.start(words, ngrams) for member, (_, words, ngrams, _, _) in
                       zip(self.members, encoded)]
-        found = joint_beam_search(self.members, starts, n, beam, self.rule, self._stacked)
+        found = joint_beam_search(self.members, starts, n, beam, self.rule, self._decoders)
         if not found and self.rule != "mixture":  # no program every member can express
-            found = joint_beam_search(self.members, starts, n, beam, "mixture", self._stacked)
+            found = joint_beam_search(self.members, starts, n, beam, "mixture", self._decoders)
         targets, registry = self.members[0].trained.targets, self.members[0].registry
         return self._result(question, encoded, [(targets.decode(ids, registry), combine(per_member, self.rule))
                                                 for ids, per_member in found])
