@@ -37,7 +37,14 @@ def main() -> None:
     from po3d_ppl.perception.object_parser import ParserConfig, parse_objects
 
     fields = ParserConfig.__dataclass_fields__
-    overrides = {k: type(getattr(ParserConfig(), k))(v) for k, v in (kv.split("=", 1) for kv in args.set)}
+    def value(field: str, text: str):
+        """``none`` for None; a field whose default is None takes a float."""
+        default = getattr(ParserConfig(), field, None)
+        if text.lower() == "none":
+            return None
+        return float(text) if default is None else type(default)(text)
+
+    overrides = {k: value(k, v) for k, v in (kv.split("=", 1) for kv in args.set)}
     unknown = sorted(set(overrides) - set(fields))
     if unknown:
         raise SystemExit(f"unknown ParserConfig fields {unknown}")

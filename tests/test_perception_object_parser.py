@@ -10,6 +10,7 @@ import torch
 from po3d_ppl import ontology
 from po3d_ppl.perception.object_parser import (
     CATEGORIES,
+    SIZES,
     Hypothesis,
     ObjectProposals,
     ParserConfig,
@@ -142,3 +143,74 @@ def test_slivers_of_a_neighbour_are_dropped():
     assert object_parser._not_fragments(ownership, silhouette, config.min_visible_fraction) == [0]
     keep_all = ParserConfig(mask_stride=2, min_visible_fraction=0.0)
     assert object_parser._not_fragments(ownership, silhouette, keep_all.min_visible_fraction) == [0, 1]
+
+
+def _search_state(image):
+    """What :func:`parse_objects` computes before its 3D-NMS: features, cell evidence, templates, base camera."""
+    from po3d_ppl.perception.features import extract_features
+    from po3d_ppl.perception.image_input import CameraPrior, load_image
+    from po3d_ppl.perception.object_parser import _cached_templates, _default_model, cell_evidence
+
+    config = ParserConfig(merge_penalty=0.0)
+    img = load_image(image)
+    model = _default_model()
+    meshes = model.meshes.normalised().to("cpu")
+    features = extract_features(model.extractor, img.pixels).cpu()
+    evidence, clutter = cell_evidence(features, meshes, config.kappa)
+    templates = _cached_templates((img.size[0], img.size[1], img.intrinsics), config)
+    return config, img, meshes, features, evidence, clutter, templates, CameraPrior.for_image(img).base
+
+
+def test_an_object_proposed_as_two_fragments_is_merged():
+    """A long object accepted as two shorter proposals, one at each end (what the coarse search's peaks do to an
+    airliner or a bus), becomes one proposal of its category near it; without merging both stay."""
+    from po3d_ppl.perception.object_parser import merge_fragments
+
+    config = SceneConfig(min_objects=1, max_objects=1, camera_jitter=0.0)
+    rendered = next(r for seed in range(60) if (o := (r := generate_scene(seed, config)).scene.objects[0]).category
+                    == "bus" and o.size == "large" and o.color != "gray")
+    obj = rendered.scene.objects[0]
+    config, img, meshes, features, evidence, clutter, templates, camera = _search_state(rendered.image)
+    bus, small = CATEGORIES.index("bus"), SIZES.index("small")
+    axis = np.array([np.cos(np.radians(obj.rotation)), np.sin(np.radians(obj.rotation))])
+    ends = [np.asarray(obj.position[:2]) + sign * 0.9 * axis for sign in (-1, 1)]
+    fragments = [Hypothesis(-1, bus, small, 0, float(x), float(y), obj.rotation, 10.0, 100.0) for x, y in ends]
+    assert not footprints_overlap(*fragments, config.footprint_shrink)
+    size_hw = (int(features.shape[1]), int(features.shape[2]))
+    # the colour gate off (no chroma): this is the log-likelihood test; the gate has its own test below
+    merged, scores = merge_fragments(fragments, [100.0, 100.0], features, clutter, meshes, evidence, size_hw,
+                                     templates, camera, config)
+    assert len(merged) == len(scores) == 1
+    assert merged[0].category == bus
+    assert float(np.linalg.norm(np.array([merged[0].x, merged[0].y]) - np.asarray(obj.position[:2]))) < 0.6
+    kept, _ = merge_fragments(fragments, [100.0, 100.0], features, clutter, meshes, evidence, size_hw, templates,
+                              camera, ParserConfig(merge_penalty=None))
+    assert kept == fragments
+
+
+def test_fragments_of_different_colours_are_not_merged():
+    """The colour gate: two proposals are one object only if their median chromas agree and are not grey."""
+    from po3d_ppl.perception.object_parser import _chroma, proposal_chroma, _same_colour
+    from po3d_ppl.perception.image_input import load_image
+
+    h, w = 240, 320
+    pixels = np.zeros((h, w, 3), dtype=np.uint8)
+    pixels[:, : w // 2] = (200, 30, 30)  # red
+    pixels[:, w // 2:] = (30, 30, 200)  # blue
+    img = load_image(pixels)
+    chroma = _chroma(img)
+    hh, ww = img.size[1] // 8, img.size[0] // 8
+    mask = torch.zeros(2, hh, ww, dtype=torch.bool)
+    mask[0, :, : ww // 2] = True
+    mask[1, :, ww // 2:] = True
+    fg = torch.full((2, hh, ww), 5.0)
+    depth = torch.full((2, hh, ww), 10.0)
+    foreground = torch.ones(img.size[1], img.size[0], dtype=torch.bool)
+    config = ParserConfig(merge_penalty=0.0)
+    colours = proposal_chroma(fg, mask, depth, chroma, foreground, config)
+    assert not _same_colour(colours[0], colours[1], config)
+    assert _same_colour(colours[0], colours[0] + 3.0, config)
+    grey = torch.tensor([128.0, 129.0])
+    assert not _same_colour(grey, grey, config)  # grey bodies are not told apart by colour
+    nothing = proposal_chroma(fg, mask, depth, chroma, torch.zeros_like(foreground), config)
+    assert torch.isnan(nothing).all() and not _same_colour(nothing[0], nothing[1], config)

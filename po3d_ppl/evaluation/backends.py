@@ -101,7 +101,8 @@ class SimulatedBackend:
 
 #: Bumped whenever the code that turns the models' outputs into evidence changes (cached evidence of an older
 #: version is then never read). 2: part style tables as likelihoods (the log 16 of ``AttributeNet.style_loglik``).
-EVIDENCE_VERSION = 2
+#: 3: the object parser merges fragments of one object (``ParserConfig.merge_penalty``).
+EVIDENCE_VERSION = 3
 
 
 @dataclass(frozen=True)
