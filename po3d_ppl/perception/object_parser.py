@@ -558,10 +558,7 @@ def _final_check(accepted: list[int], hyps: list[Hypothesis], mask: torch.Tensor
     """Keep accepted proposals still in front on enough of their footprint with enough score there."""
     if not accepted:
         return [], []
-    solid = mask[accepted] & (fg[accepted] > config.solid_threshold)
-    d = torch.where(solid, depth[accepted], torch.full_like(depth[accepted], float("inf")))
-    nearer = d.min(0, keepdim=True).values
-    front = mask[accepted] & ((depth[accepted] <= nearer) | torch.isinf(nearer))
+    front = front_cells(fg[accepted], mask[accepted], depth[accepted], config)
     out, scores = [], []
     for n, i in enumerate(accepted):
         score = float(fg[i][front[n]].sum())
@@ -575,18 +572,19 @@ def _final_check(accepted: list[int], hyps: list[Hypothesis], mask: torch.Tensor
 # --- merging fragments: one object proposed as two --------------------------------------------------------------
 
 
-def front_scores(fg: torch.Tensor, mask: torch.Tensor, depth: torch.Tensor, config: ParserConfig) -> torch.Tensor:
-    """[B] each posed mesh's score on the cells where no other mesh's *solid* cell is nearer (the 3D-NMS's rule,
-    without its order): the image log-likelihood ratio a set of proposals earns, as a sum over them."""
+def front_cells(fg: torch.Tensor, mask: torch.Tensor, depth: torch.Tensor, config: ParserConfig) -> torch.Tensor:
+    """[B, h, w] the cells each posed mesh covers where no other mesh's *solid* cell (its score above
+    ``solid_threshold``) is nearer: the 3D-NMS's rule, without its order. A mesh's own solid cell is at its own
+    depth, so taking the nearest solid depth over all meshes (itself included) gives the same cells."""
     solid = mask & (fg > config.solid_threshold)
-    d = torch.where(solid, depth, torch.full_like(depth, float("inf")))
-    out = torch.zeros(fg.shape[0])
-    for b in range(fg.shape[0]):
-        others = torch.cat([d[:b], d[b + 1:]])
-        nearer = others.min(0).values if others.shape[0] else torch.full_like(d[b], float("inf"))
-        front = mask[b] & (depth[b] <= nearer)
-        out[b] = fg[b][front].sum()
-    return out
+    nearest = torch.where(solid, depth, torch.full_like(depth, float("inf"))).min(0, keepdim=True).values
+    return mask & (depth <= nearest)
+
+
+def front_scores(fg: torch.Tensor, mask: torch.Tensor, depth: torch.Tensor, config: ParserConfig) -> torch.Tensor:
+    """[B] each posed mesh's score on its :func:`front_cells`: the image log-likelihood ratio a set of proposals
+    earns, as a sum over them."""
+    return torch.where(front_cells(fg, mask, depth, config), fg, torch.zeros_like(fg)).flatten(1).sum(-1)
 
 
 def _merge_candidates(a: Hypothesis, b: Hypothesis, evidence: list[torch.Tensor], feature_size: tuple[int, int],
@@ -627,14 +625,11 @@ def _merge_candidates(a: Hypothesis, b: Hypothesis, evidence: list[torch.Tensor]
 def proposal_chroma(fg: torch.Tensor, mask: torch.Tensor, depth: torch.Tensor, chroma: torch.Tensor,
                     foreground: torch.Tensor, config: ParserConfig) -> torch.Tensor:
     """[B, 2] median chroma (``chroma`` [H, W, 2]) of each posed mesh's pixels: the foreground pixels of the solid
-    cells it is in front on (NaN where it has none)."""
-    solid = mask & (fg > config.solid_threshold)
-    d = torch.where(solid, depth, torch.full_like(depth, float("inf")))
-    nearest = d.min(0).values
+    cells among its :func:`front_cells` (NaN where it has none)."""
+    own = front_cells(fg, mask, depth, config) & (fg > config.solid_threshold)
     h, w = chroma.shape[:2]
     out = torch.full((fg.shape[0], 2), float("nan"))
-    for b in range(fg.shape[0]):
-        cells = solid[b] & (depth[b] <= nearest)
+    for b, cells in enumerate(own):
         pixels = cells.repeat_interleave(STRIDE, 0).repeat_interleave(STRIDE, 1)[:h, :w]
         pixels = F.pad(pixels, (0, w - pixels.shape[1], 0, h - pixels.shape[0])) & foreground
         if bool(pixels.any()):
@@ -674,9 +669,11 @@ def merge_fragments(hyps: list[Hypothesis], scores: list[float], features: torch
     if config.merge_penalty is None or len(hyps) < 2:
         return hyps, scores
     hyps, scores = list(hyps), list(scores)
-    candidates: dict[tuple[Hypothesis, Hypothesis], list[Hypothesis]] = {}
+    fg, mask, depth = cell_scores(hyps, features, clutter, meshes, camera, config)
+    # per pair: its one-object candidates and their cell maps (rendered once, kept across merges elsewhere)
+    candidates: dict[tuple[Hypothesis, Hypothesis], tuple[list[Hypothesis], torch.Tensor, torch.Tensor,
+                                                          torch.Tensor]] = {}
     while len(hyps) >= 2:
-        fg, mask, depth = cell_scores(hyps, features, clutter, meshes, camera, config)
         total = float(front_scores(fg, mask, depth, config).sum())
         grown = F.max_pool2d(mask.float()[:, None], 3, stride=1, padding=1)[:, 0] > 0
         colour = proposal_chroma(fg, mask, depth, chroma, foreground, config) if chroma is not None else None
@@ -690,26 +687,27 @@ def merge_fragments(hyps: list[Hypothesis], scores: list[float], features: torch
                 others = [k for k in range(len(hyps)) if k not in (i, j)]
                 key = (hyps[i], hyps[j])
                 if key not in candidates:
-                    candidates[key] = _merge_candidates(hyps[i], hyps[j], evidence, feature_size, templates, camera,
-                                                        config)
-                cands = [m for m in candidates[key]
-                         if not any(footprints_overlap(m, hyps[k], config.footprint_shrink) for k in others)]
-                if not cands:
-                    continue
-                cfg, cmask, cdepth = cell_scores(cands, features, clutter, meshes, camera, config)
+                    cands = _merge_candidates(hyps[i], hyps[j], evidence, feature_size, templates, camera, config)
+                    candidates[key] = (cands, *cell_scores(cands, features, clutter, meshes, camera, config)) \
+                        if cands else ([], None, None, None)
+                cands, cfg, cmask, cdepth = candidates[key]
                 for n, m in enumerate(cands):
+                    if any(footprints_overlap(m, hyps[k], config.footprint_shrink) for k in others):
+                        continue
                     front = front_scores(torch.cat([fg[others], cfg[n:n + 1]]),
                                          torch.cat([mask[others], cmask[n:n + 1]]),
                                          torch.cat([depth[others], cdepth[n:n + 1]]), config)
                     change = float(front.sum()) - total
                     if change >= -config.merge_penalty and (best is None or change > best[0]):
-                        best = (change, i, j, m, float(front[-1]))
+                        best = (change, i, j, (key, n), float(front[-1]))
         if best is None:
             break
-        _, i, j, merged, score = best
+        _, i, j, (key, n), score = best
+        cands, cfg, cmask, cdepth = candidates[key]
         keep = [k for k in range(len(hyps)) if k not in (i, j)]
-        hyps = [hyps[k] for k in keep] + [merged]
+        hyps = [hyps[k] for k in keep] + [cands[n]]
         scores = [scores[k] for k in keep] + [score]
+        fg, mask, depth = (torch.cat([t[keep], c[n:n + 1]]) for t, c in ((fg, cfg), (mask, cmask), (depth, cdepth)))
     return hyps, scores
 
 
@@ -999,7 +997,7 @@ def parse_objects(image, model: FeatureModel | None = None, config: ParserConfig
     hyps = _best_hypotheses(scores, peaks, grid, camera, config)
     accepted, new_scores = accept_proposals(hyps, features, clutter, meshes, camera, config)
     foreground = _foreground(img, background)
-    if config.merge_penalty is not None:
+    if config.merge_penalty is not None and len(accepted) >= 2:
         chroma, merge_fg = _chroma(img), (torch.from_numpy(foreground) if foreground is not None else
                                           torch.ones(img.size[::-1], dtype=torch.bool))
         accepted, new_scores = merge_fragments(accepted, new_scores, features, clutter, meshes, evidence, size_hw,
@@ -1059,16 +1057,19 @@ def _foreground(img: ImageInput, background: BackgroundModel | None) -> np.ndarr
     """The background model's foreground of ``img`` (None without a model, or one of another image size)."""
     if background is None or tuple(img.size[::-1]) != background.ground.shape[:2]:
         return None
-    rgb = (img.pixels.permute(1, 2, 0).numpy() * 255.0).round().astype(np.uint8)
-    return background.foreground(rgb)
+    return background.foreground(_rgb8(img))
+
+
+def _rgb8(img: ImageInput) -> np.ndarray:
+    """[H, W, 3] uint8 RGB of ``img`` (what the background model and OpenCV read)."""
+    return (img.pixels.permute(1, 2, 0).numpy() * 255.0).round().astype(np.uint8)
 
 
 def _chroma(img: ImageInput) -> torch.Tensor:
     """[H, W, 2] CIELAB a, b of ``img`` (OpenCV's 8-bit scale): an object's body colour, little changed by shading."""
     import cv2
 
-    rgb = (img.pixels.permute(1, 2, 0).numpy() * 255.0).round().astype(np.uint8)
-    return torch.from_numpy(cv2.cvtColor(rgb, cv2.COLOR_RGB2LAB)[..., 1:].astype(np.float32))
+    return torch.from_numpy(cv2.cvtColor(_rgb8(img), cv2.COLOR_RGB2LAB)[..., 1:].astype(np.float32))
 
 
 def _final_ownership(accepted: list[Hypothesis], camera: Camera, config: ParserConfig, size: tuple[int, int],
