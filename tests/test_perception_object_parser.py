@@ -214,3 +214,61 @@ def test_fragments_of_different_colours_are_not_merged():
     assert not _same_colour(grey, grey, config)  # grey bodies are not told apart by colour
     nothing = proposal_chroma(fg, mask, depth, chroma, torch.zeros_like(foreground), config)
     assert torch.isnan(nothing).all() and not _same_colour(nothing[0], nothing[1], config)
+
+
+def test_a_near_mesh_hides_only_the_cells_its_evidence_wins():
+    """The contest: a near mesh whose texture explains a cell much worse than a far mesh's (its category mesh's
+    overshoot) does not hide that cell; without the contest (or inside the margin) it does."""
+    from po3d_ppl.perception.object_parser import front_cells
+
+    mask = torch.tensor([[[True, True, True]], [[False, True, True]]])
+    depth = torch.tensor([[[5.0, 5.0, 5.0]], [[8.0, 8.0, 8.0]]])
+    fg = torch.tensor([[[6.0, 1.0, 5.0]], [[0.0, 6.0, 6.0]]])
+    contested = front_cells(fg, mask, depth, ParserConfig(contest_margin=2.0))
+    assert contested[1, 0].tolist() == [False, True, False]  # cell 2: the near mesh's 5 is within 2 of 6
+    assert contested[0, 0].tolist() == [True, True, True]  # the near mesh still scores its own nearest cells
+    plain = front_cells(fg, mask, depth, ParserConfig(contest_margin=None))
+    assert plain[1, 0].tolist() == [False, False, False]
+
+
+def test_an_object_behind_an_overshooting_mesh_is_added_only_if_its_colour_differs(monkeypatch):
+    """:func:`add_occluded` on cell maps given directly: two peaks lie behind an accepted mesh's overshoot and
+    explain those cells better; the one showing another colour is accepted, the one of the accepted proposal's colour
+    (a duplicate of it) is not, and nothing is added without the contest."""
+    import cv2
+
+    from po3d_ppl.perception import object_parser as op
+
+    cells_h, cells_w = 4, 12
+    pixels = np.zeros((cells_h * 8, cells_w * 8, 3), dtype=np.uint8)
+    pixels[:, :32] = (200, 30, 30)  # the accepted object: red
+    pixels[:, 32:64] = (30, 30, 200)  # what lies behind its right overshoot: blue
+    pixels[:, 64:] = (200, 30, 30)  # ... and, further right, red again
+    chroma = torch.from_numpy(cv2.cvtColor(pixels, cv2.COLOR_RGB2LAB)[..., 1:].astype(np.float32))
+    foreground = torch.ones(chroma.shape[:2], dtype=torch.bool)
+
+    def maps(cols_owned: slice, cols_covered: slice, depth_value: float, score: float, overshoot: float = 1.0):
+        fg = torch.zeros(cells_h, cells_w)
+        mask = torch.zeros(cells_h, cells_w, dtype=torch.bool)
+        mask[:, cols_covered] = True
+        fg[:, cols_covered] = overshoot
+        fg[:, cols_owned] = score
+        return fg, mask, torch.full((cells_h, cells_w), depth_value)
+
+    accepted = Hypothesis(0, 0, 0, 0, 0.0, 0.0, 0.0, 5.0, 500.0)
+    blue = Hypothesis(1, 1, 1, 0, 5.0, 0.0, 0.0, 8.0, 300.0)
+    red = Hypothesis(2, 1, 1, 0, 9.0, 0.0, 0.0, 8.0, 200.0)
+    table = {accepted: maps(slice(0, 4), slice(0, 12), 5.0, 6.0), blue: maps(slice(4, 8), slice(4, 8), 8.0, 6.0),
+             red: maps(slice(8, 12), slice(8, 12), 8.0, 6.0)}
+
+    def fake_cell_scores(hyps, *args):
+        return tuple(torch.stack([table[h][n] for h in hyps]) for n in range(3))
+
+    monkeypatch.setattr(op, "cell_scores", fake_cell_scores)
+    config = ParserConfig(contest_margin=2.0, existence_threshold=20.0)
+    kept, scores = op.add_occluded([accepted], [100.0], [accepted, blue, red], None, None, None, None, config,
+                                   chroma, foreground)
+    assert kept == [accepted, blue] and len(scores) == 2
+    plain, _ = op.add_occluded([accepted], [100.0], [accepted, blue, red], None, None, None, None,
+                               ParserConfig(contest_margin=None), chroma, foreground)
+    assert plain == [accepted]
