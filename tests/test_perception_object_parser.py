@@ -116,9 +116,9 @@ def test_a_mesh_hides_only_its_solid_cells():
     far = Hypothesis(0, car, 0, 0, 0.0, 1.5, 0.0, 11.0, 0.0)
     cells = (240 // 8, 320 // 8)
     fg = torch.stack([torch.full(cells, -5.0), torch.full(cells, 5.0)])  # the near one explains nothing
-    hard, _ = _ownership([near, far], camera, ParserConfig(solid_threshold=-float("inf"), mask_stride=2), (320, 240),
-                         fg)
-    solid, _ = _ownership([near, far], camera, ParserConfig(solid_threshold=0.0, mask_stride=2), (320, 240), fg)
+    plain = ParserConfig(solid_threshold=-float("inf"), mask_stride=2, contest_margin=None)  # a plain z-buffer
+    hard, _, _ = _ownership([near, far], camera, plain, (320, 240), fg)
+    solid, _, _ = _ownership([near, far], camera, ParserConfig(solid_threshold=0.0, mask_stride=2), (320, 240), fg)
     both = (hard == 0) & (solid == 1)  # pixels the near mesh covered in front of the far one
     assert int(both.sum()) > 100
     assert int((solid == 0).sum()) < int((hard == 0).sum())
@@ -136,8 +136,8 @@ def test_slivers_of_a_neighbour_are_dropped():
     whole = Hypothesis(0, car, 0, 0, 0.0, 0.0, 0.0, 10.0, 0.0)
     sliver = Hypothesis(0, car, 0, 0, 1.6, 0.0, 0.0, 10.0, 0.0)
     config = ParserConfig(mask_stride=2)
-    alone, _ = object_parser._ownership([whole], camera, config, (320, 240))
-    _, silhouette = object_parser._ownership([whole, sliver], camera, config, (320, 240))
+    alone, _, _ = object_parser._ownership([whole], camera, config, (320, 240))
+    _, silhouette, _ = object_parser._ownership([whole, sliver], camera, config, (320, 240))
     ownership = alone.clone()
     ownership[0, :10] = 1  # ten pixels for the second proposal, far less than 5% of its silhouette
     assert object_parser._not_fragments(ownership, silhouette, config.min_visible_fraction) == [0]
@@ -272,3 +272,32 @@ def test_an_object_behind_an_overshooting_mesh_is_added_only_if_its_colour_diffe
     plain, _ = op.add_occluded([accepted], [100.0], [accepted, blue, red], None, None, None, None,
                                ParserConfig(contest_margin=None), chroma, foreground)
     assert plain == [accepted]
+
+
+def test_pixels_two_meshes_cover_go_to_the_one_whose_colour_they_show():
+    """:func:`_recolour`: the depth order gave a red proposal's overshoot the blue neighbour's pixels; those covered
+    by the blue proposal's mesh move to it, those its mesh does not cover stay, and grey pixels (tyres, shading)
+    near neither colour stay with their owner."""
+    import cv2
+
+    from po3d_ppl.perception.object_parser import _recolour
+
+    h, w = 16, 32
+    pixels = np.zeros((h, w, 3), dtype=np.uint8)
+    pixels[:, :16] = (200, 30, 30)
+    pixels[:, 16:] = (30, 30, 200)
+    pixels[:, 30:] = (128, 128, 128)
+    chroma = torch.from_numpy(cv2.cvtColor(pixels, cv2.COLOR_RGB2LAB)[..., 1:].astype(np.float32))
+    ownership = torch.zeros(h, w, dtype=torch.long)
+    ownership[:, 24:30] = 1  # the blue proposal owns only part of its body
+    coverage = torch.zeros(2, h // 2, w // 2, dtype=torch.bool)  # meshes at stride 2
+    coverage[0] = True
+    coverage[1, :, 10:] = True  # the blue mesh covers columns 20 onwards
+    out = _recolour(ownership, coverage, chroma, ParserConfig(mask_stride=2, colour_margin=10.0, colour_close=12.0))
+    assert (out[:, :16] == 0).all()
+    assert (out[:, 16:20] == 0).all()  # blue, but only the red mesh covers them
+    assert (out[:, 20:30] == 1).all()
+    assert (out[:, 30:] == 0).all()  # grey: near neither proposal's colour
+    strict = ParserConfig(mask_stride=2, colour_margin=1000.0)  # no colour is that much nearer
+    unchanged = _recolour(ownership, coverage, chroma, strict)
+    assert torch.equal(unchanged, ownership)

@@ -102,8 +102,9 @@ class SimulatedBackend:
 #: Bumped whenever the code that turns the models' outputs into evidence changes (cached evidence of an older
 #: version is then never read). 2: part style tables as likelihoods (the log 16 of ``AttributeNet.style_loglik``).
 #: 3: the object parser merges fragments of one object (``ParserConfig.merge_penalty``). 4: contested cells and
-#: occluded objects added (``ParserConfig.contest_margin``).
-EVIDENCE_VERSION = 4
+#: occluded objects added (``ParserConfig.contest_margin``). 5: masks split between touching proposals by colour
+#: (``ParserConfig.colour_margin``).
+EVIDENCE_VERSION = 5
 
 
 @dataclass(frozen=True)
