@@ -594,9 +594,10 @@ def _final_check(accepted: list[int], hyps: list[Hypothesis], mask: torch.Tensor
 
 def front_cells(fg: torch.Tensor, mask: torch.Tensor, depth: torch.Tensor, config: ParserConfig,
                 contest: bool = True) -> torch.Tensor:
-    """[B, h, w] the cells each posed mesh covers where no other mesh's *solid* cell (its score above
-    ``solid_threshold``) is nearer: the 3D-NMS's rule, without its order. A mesh's own solid cell is at its own
-    depth, so taking the nearest solid depth over all meshes (itself included) gives the same cells."""
+    """[B, h, w] the cells each posed mesh covers where no other mesh's claimed cell (:func:`claimed_cells`; without
+    ``contest``, every *solid* cell: score above ``solid_threshold``) is nearer: the 3D-NMS's rule, without its
+    order. A mesh's own claimed cell is at its own depth, so taking the nearest claimed depth over all meshes (itself
+    included) gives the same cells."""
     nearest = torch.where(claimed_cells(fg, mask, config, contest), depth, torch.full_like(depth, float("inf")))
     return mask & (depth <= nearest.min(0, keepdim=True).values)
 
@@ -743,6 +744,9 @@ def merge_fragments(hyps: list[Hypothesis], scores: list[float], features: torch
     return hyps, scores
 
 
+# --- occluded objects: contested cells --------------------------------------------------------------------------
+
+
 def add_occluded(hyps: list[Hypothesis], scores: list[float], pool: list[Hypothesis], features: torch.Tensor,
                  clutter: torch.Tensor, meshes: NeuralMeshes, camera: Camera, config: ParserConfig,
                  chroma: torch.Tensor, foreground: torch.Tensor) -> tuple[list[Hypothesis], list[float]]:
@@ -783,6 +787,9 @@ def _distinct_colours(a: torch.Tensor, b: torch.Tensor, config: ParserConfig) ->
     """Two median chromas that tell two bodies apart: both measured and further apart than one body's spread."""
     return bool(torch.isfinite(a).all() and torch.isfinite(b).all()
                 and torch.linalg.norm(a - b) > config.merge_colour_distance)
+
+
+# --- camera and position: local search around the accepted proposals ----------------------------------------------
 
 
 def _local_pixels(hyps: list[Hypothesis], camera: Camera, config: ParserConfig) -> tuple[torch.Tensor, torch.Tensor]:
@@ -964,13 +971,14 @@ def _tables(scores: torch.Tensor, grid: Grid, hyp: Hypothesis, config: ParserCon
 
 
 def _ownership(hyps: list[Hypothesis], camera: Camera, config: ParserConfig, size: tuple[int, int],
-               fg: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
-    """([H, W] index of the proposal owning each pixel, -1: none; [N] pixels of each proposal's silhouette).
+               fg: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """([H, W] index of the proposal owning each pixel, -1: none; [N] pixels of each proposal's silhouette;
+    [N, h, w] each mesh's coverage at ``mask_stride``).
 
     Each proposal is rendered alone at ``mask_stride`` (one batched call). A pixel goes to the nearest proposal
-    whose cell score there (``fg``, stride 8, bilinear) exceeds ``solid_threshold``, as in the 3D-NMS: a category
-    mesh overshoots its subtype, so it hides what lies behind it only where its evidence says it is there. Other
-    covered pixels go to the nearest mesh (all of them without ``fg``: a plain z-buffer)."""
+    that claims it (:func:`claimed_cells` on its cell scores ``fg``, stride 8, bilinear), as after the 3D-NMS: a
+    category mesh overshoots its subtype, so it hides what lies behind it only where its evidence says it is there.
+    Other covered pixels go to the nearest mesh (all of them without ``fg``: a plain z-buffer)."""
     from po3d_ppl.perception.rasterizer import rasterize_camera
 
     width, height = size
