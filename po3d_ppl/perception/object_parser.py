@@ -84,6 +84,8 @@ from po3d_ppl.world.scene import Camera
 
 CATEGORIES = tuple(ontology.CATEGORIES)
 SIZES = ("large", "small")
+#: :func:`cell_scores` of B posed meshes: per cell score against clutter, coverage and depth ([B, h, w] each).
+CellMaps = tuple[torch.Tensor, torch.Tensor, torch.Tensor]
 
 
 @dataclass(frozen=True)
@@ -492,8 +494,8 @@ def _posed_meshes(hyps: list[Hypothesis]) -> tuple[torch.Tensor, torch.Tensor, l
 
 
 def accept_proposals(hyps: list[Hypothesis], features: torch.Tensor, clutter: torch.Tensor,
-                           meshes: NeuralMeshes, camera: Camera, config: ParserConfig
-                           ) -> tuple[list[Hypothesis], list[float]]:
+                     meshes: NeuralMeshes, camera: Camera, config: ParserConfig, maps: CellMaps | None = None
+                     ) -> tuple[list[Hypothesis], list[float]]:
     """Greedy 3D-NMS on a z-buffer of the accepted meshes.
 
     Candidates are taken best coarse score first; each cell is owned by the nearest accepted mesh covering it (depth
@@ -501,12 +503,13 @@ def accept_proposals(hyps: list[Hypothesis], features: torch.Tensor, clutter: to
     log-likelihood of the image rises by ``existence_threshold`` or more (its cell scores minus those of the cells'
     current owners) and it is in front on at least ``min_new_fraction`` of its footprint. Plain depth order
     (nearest first, measured) accepted small hypotheses in front of large near objects; scoring the gain against
-    the current owner rejects them. A last pass drops accepted proposals that nearer later ones hid.
+    the current owner rejects them. A last pass drops accepted proposals that nearer later ones hid. ``maps``:
+    the hypotheses' :func:`cell_scores` when the caller has them.
     """
 
     if not hyps:
         return [], []
-    fg, mask, depth = cell_scores(hyps, features, clutter, meshes, camera, config)
+    fg, mask, depth = maps if maps is not None else cell_scores(hyps, features, clutter, meshes, camera, config)
     hh, ww = mask.shape[1:]
     footprint = mask.flatten(1).sum(-1).float()
     owner_depth = torch.full((hh, ww), float("inf"))
@@ -570,6 +573,12 @@ def cell_scores(hyps: list[Hypothesis], features: torch.Tensor, clutter: torch.T
         f = features[:, :hh, :ww].permute(1, 2, 0)
         fg = config.kappa * (rendered * f[None]).sum(-1) - clutter.view(hh, ww)[None]
     return fg, frags.mask, frags.depth_map.detach()
+
+
+def rows_of(maps: CellMaps, among: list[Hypothesis], wanted: list[Hypothesis]) -> CellMaps:
+    """The cell maps of ``wanted`` taken from those of ``among`` (which holds every one of them): rendered once."""
+    index = [among.index(h) for h in wanted]
+    return tuple(t[index] for t in maps)
 
 
 def _final_check(accepted: list[int], hyps: list[Hypothesis], mask: torch.Tensor, depth: torch.Tensor,
@@ -681,8 +690,8 @@ def _same_colour(a: torch.Tensor, b: torch.Tensor, config: ParserConfig) -> bool
 def merge_fragments(hyps: list[Hypothesis], scores: list[float], features: torch.Tensor, clutter: torch.Tensor,
                     meshes: NeuralMeshes, evidence: list[torch.Tensor], feature_size: tuple[int, int],
                     templates: Templates, camera: Camera, config: ParserConfig,
-                    chroma: torch.Tensor | None = None, foreground: torch.Tensor | None = None
-                    ) -> tuple[list[Hypothesis], list[float]]:
+                    chroma: torch.Tensor | None = None, foreground: torch.Tensor | None = None,
+                    maps: CellMaps | None = None) -> tuple[list[Hypothesis], list[float]]:
     """Replace two accepted proposals by one when one posed mesh explains the image about as well.
 
     A long object (an airliner, an articulated bus, a bicycle end-on) is often accepted as two shorter proposals:
@@ -698,11 +707,12 @@ def merge_fragments(hyps: list[Hypothesis], scores: list[float], features: torch
     precision 0.945 -> 0.955 but recall 0.899 -> 0.862 on its first 40; the gain of right and wrong merges
     overlapped, 58-834 against 58-296). With ``chroma`` [H, W, 2] and ``foreground`` [H, W] only pairs of one
     body colour are tested (:func:`_same_colour`; the world paints each object one colour, parts aside): of the
-    touching proposal pairs on seed 712, 9 of 22 on one object and 19 of 231 on two were within 10."""
+    touching proposal pairs on seed 712, 9 of 22 on one object and 19 of 231 on two were within 10. ``maps``: the
+    proposals' :func:`cell_scores` when the caller has them."""
     if config.merge_penalty is None or len(hyps) < 2:
         return hyps, scores
     hyps, scores = list(hyps), list(scores)
-    fg, mask, depth = cell_scores(hyps, features, clutter, meshes, camera, config)
+    fg, mask, depth = maps if maps is not None else cell_scores(hyps, features, clutter, meshes, camera, config)
     # per pair: its one-object candidates and their cell maps (rendered once, kept across merges elsewhere)
     candidates: dict[tuple[Hypothesis, Hypothesis], tuple[list[Hypothesis], torch.Tensor, torch.Tensor,
                                                           torch.Tensor]] = {}
@@ -749,17 +759,22 @@ def merge_fragments(hyps: list[Hypothesis], scores: list[float], features: torch
 
 def add_occluded(hyps: list[Hypothesis], scores: list[float], pool: list[Hypothesis], features: torch.Tensor,
                  clutter: torch.Tensor, meshes: NeuralMeshes, camera: Camera, config: ParserConfig,
-                 chroma: torch.Tensor, foreground: torch.Tensor) -> tuple[list[Hypothesis], list[float]]:
+                 chroma: torch.Tensor, foreground: torch.Tensor, pool_maps: CellMaps | None = None
+                 ) -> tuple[list[Hypothesis], list[float]]:
     """Accept peaks the 3D-NMS shut out behind a nearer mesh's overshoot, when their colour says they are another
     object: each rejected peak (``pool``, best first) is scored with contested cells (:func:`claimed_cells`) and
     accepted by the 3D-NMS's rules (gain, front fraction, footprints apart) if its median chroma differs from that
-    of every accepted proposal whose mask its own meets (:func:`_distinct_colours`)."""
-    pool = [h for h in pool if h not in hyps]
-    if config.contest_margin is None or not hyps or not pool:
+    of every accepted proposal whose mask its own meets (:func:`_distinct_colours`). ``pool_maps``: the pool's
+    :func:`cell_scores` when the caller has them (the accepted proposals' are taken from them if they are peaks)."""
+    if config.contest_margin is None or not hyps or all(h in hyps for h in pool):
         return hyps, scores
-    hyps, scores = list(hyps), list(scores)
-    fg, mask, depth = cell_scores(hyps, features, clutter, meshes, camera, config)
-    pool_fg, pool_mask, pool_depth = cell_scores(pool, features, clutter, meshes, camera, config)
+    if pool_maps is None:
+        pool_maps = cell_scores(pool, features, clutter, meshes, camera, config)
+    fg, mask, depth = rows_of(pool_maps, pool, hyps) if all(h in pool for h in hyps) else \
+        cell_scores(hyps, features, clutter, meshes, camera, config)
+    rejected = [h for h in pool if h not in hyps]
+    pool_fg, pool_mask, pool_depth = rows_of(pool_maps, pool, rejected)
+    pool, hyps, scores = rejected, list(hyps), list(scores)
     total = float(front_scores(fg, mask, depth, config).sum())
     for m in sorted(range(len(pool)), key=lambda m: -pool[m].score):
         footprint = float(pool_mask[m].sum())
@@ -1076,15 +1091,18 @@ def parse_objects(image, model: FeatureModel | None = None, config: ParserConfig
     t2 = time.perf_counter()
     timings["coarse"] = t2 - t1
     hyps = _best_hypotheses(scores, peaks, grid, camera, config)
-    accepted, new_scores = accept_proposals(hyps, features, clutter, meshes, camera, config)
+    peak_maps = cell_scores(hyps, features, clutter, meshes, camera, config) if hyps else None
+    accepted, new_scores = accept_proposals(hyps, features, clutter, meshes, camera, config, peak_maps)
     foreground = _foreground(img, background)
     chroma, colour_fg = _chroma(img), (torch.from_numpy(foreground) if foreground is not None else
                                        torch.ones(img.size[::-1], dtype=torch.bool))
     accepted, new_scores = add_occluded(accepted, new_scores, hyps, features, clutter, meshes, camera, config,
-                                        chroma, colour_fg)
+                                        chroma, colour_fg, peak_maps)
     if config.merge_penalty is not None and len(accepted) >= 2:
+        # every proposal is still one of the peaks: their cell maps are rendered already
         accepted, new_scores = merge_fragments(accepted, new_scores, features, clutter, meshes, evidence, size_hw,
-                                               templates, camera, config, chroma, colour_fg)
+                                               templates, camera, config, chroma, colour_fg,
+                                               rows_of(peak_maps, hyps, accepted))
     t3 = time.perf_counter()
     timings["nms"] = t3 - t2
     found = camera
