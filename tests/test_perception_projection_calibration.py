@@ -13,6 +13,7 @@ from po3d_ppl.perception.projection_calibration import (
     TABLES,
     WEIGHTS,
     ProjectionCalibration,
+    edge_logodds,
     load_projection_calibration,
 )
 
@@ -43,6 +44,19 @@ def test_apply_rescales_each_listed_table_and_keeps_the_diagonal(scene):
         ProjectionCalibration({"pose_loglik": (1.0, 0.0)})
     with pytest.raises(InputError, match="scale"):
         ProjectionCalibration({"occluded_logodds": (0.0, 0.0)})
+    with pytest.raises(InputError, match="monotone"):
+        ProjectionCalibration({"occluded_logodds": (1.0, 0.0, 0.5, 0.0)}, edge=2.0)
+    with pytest.raises(InputError, match="need the edge"):
+        ProjectionCalibration({"occluded_logodds": (1.0, 0.0, -0.5, 0.0)})
+
+
+def test_edge_shifts_apply_only_at_the_floor_and_ceiling():
+    edge = edge_logodds(0.05)
+    table = torch.tensor([-edge, -1.0, 0.0, 1.0, edge], dtype=torch.float32)  # stored tables are float32
+    calibration = ProjectionCalibration({"occluded_logodds": (2.0, 0.5, -3.0, 1.5)}, edge=edge)
+    out = calibration.posterior_logodds("occluded_logodds", table.double())
+    expected = table.double() * 2.0 + 0.5 + torch.tensor([-3.0, 0, 0, 0, 1.5], dtype=torch.float64)
+    assert torch.allclose(out, expected)
 
 
 def test_files_round_trip_and_are_checked(tmp_path):
@@ -50,8 +64,8 @@ def test_files_round_trip_and_are_checked(tmp_path):
     from po3d_ppl.perception.projection_calibration import MODEL_NAME
 
     assert load_projection_calibration(tmp_path) is None  # none listed: the parser keeps the raw tables
-    calibration = ProjectionCalibration({name: (1.0 + k, -0.5 * k) for k, name in enumerate(TABLES)},
-                                        {name: 0.1 + 0.1 * k for k, name in enumerate(TABLES)})
+    calibration = ProjectionCalibration({name: (1.0 + k, -0.5 * k, -0.1 * k, 0.2 * k) for k, name in enumerate(TABLES)},
+                                        {name: 0.1 + 0.1 * k for k, name in enumerate(TABLES)}, edge=2.5)
     write_entry(MODEL_NAME, [calibration.save(tmp_path)], tmp_path, command="test")
     assert load_projection_calibration(tmp_path) == calibration
     (tmp_path / WEIGHTS).write_bytes((tmp_path / WEIGHTS).read_bytes()[:-3] + b"xyz")
@@ -81,7 +95,8 @@ def test_platt_fit_finds_the_rate_behind_a_floored_table(scene):
     y = torch.cat([low, high])
     entries = {name: (x, y) for name in TABLES}
     calibration, report = fit_projection_calibration(entries)
-    a, b = calibration.platt["occluded_logodds"]
+    a, b, floor_shift, ceiling_shift = calibration.platt["occluded_logodds"]
+    assert floor_shift == ceiling_shift == 0.0  # no edge given: plain Platt scaling
     assert torch.sigmoid(torch.tensor(-floor * a + b)) == pytest.approx(float(low.double().mean()), abs=0.005)
     assert torch.sigmoid(torch.tensor(floor * a + b)) == pytest.approx(float(high.double().mean()), abs=0.01)
     assert calibration.base_rate["occluded_logodds"] == pytest.approx(float(y.double().mean()))
@@ -93,6 +108,36 @@ def test_platt_fit_finds_the_rate_behind_a_floored_table(scene):
     assert one_sided["occluded_logodds"]["fitted"] is None  # nothing to fit without both outcomes
     assert collect([(simulated_evidence(scene, noise=0.0), scene)])["occluded_logodds"][0].numel() == \
         len(scene.objects)
+
+
+def test_edge_platt_fit_finds_the_floor_state_a_line_cannot():
+    """Entries at the floor are almost never events, those between the edges follow a gentle slope, those at the
+    ceiling mostly are: the edge fit recovers all three where one line is pulled flat by the floor's mass, and its
+    likelihood is higher."""
+    from po3d_ppl.evaluation.projection import fit_edge_platt
+
+    generator = torch.Generator().manual_seed(1)
+    edge = edge_logodds(0.05)
+    between = (torch.rand(3000, generator=generator) * 2 - 1) * edge * 0.95
+    x = torch.cat([torch.full((20000,), -edge), between, torch.full((1000,), edge)]).double()
+    rate = torch.cat([torch.full((20000,), 0.002), torch.sigmoid(0.6 * between.double()),
+                      torch.full((1000,), 0.85, dtype=torch.float64)])
+    y = torch.rand(x.shape, generator=generator, dtype=torch.float64) < rate
+    a, b, floor_shift, ceiling_shift = fit_edge_platt(x, y, edge)
+    assert a == pytest.approx(0.6, abs=0.1) and b == pytest.approx(0.0, abs=0.15)
+    calibration = ProjectionCalibration({"occluded_logodds": (a, b, floor_shift, ceiling_shift)}, edge=edge)
+    fitted = torch.sigmoid(calibration.posterior_logodds("occluded_logodds", x))
+    assert float(fitted[0]) == pytest.approx(0.002, abs=0.001)
+    assert float(fitted[-1]) == pytest.approx(0.85, abs=0.03)
+    plain = fit_edge_platt(x, y, None)
+    assert plain[2:] == (0.0, 0.0)
+
+    def nll(logits: torch.Tensor) -> float:
+        return float(torch.nn.functional.binary_cross_entropy_with_logits(logits, y.double()))
+
+    assert nll(calibration.posterior_logodds("occluded_logodds", x)) < nll(plain[0] * x + plain[1]) - 0.005
+    with pytest.raises(InputError, match="both outcomes"):
+        fit_edge_platt(x, torch.zeros_like(y), edge)
 
 
 def test_scene_model_posterior_is_the_fitted_one_at_the_world_rate(scene):

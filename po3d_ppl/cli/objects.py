@@ -233,14 +233,15 @@ def train_projection_command(
     from po3d_ppl.evaluation.backends import ImageBackend
     from po3d_ppl.evaluation.projection import collect, fit_projection_calibration
     from po3d_ppl.model_store import models_dir
-    from po3d_ppl.perception.projection_calibration import MODEL_NAME
+    from po3d_ppl.perception.projection_calibration import MODEL_NAME, edge_logodds
 
     torch.set_num_threads(threads)
     console = Console()
     raw = ImageBackend(calibrated_projection=False, models_dir=model_dir)
+    edge = edge_logodds(raw.parser.config.projection_floor)
     calibration, report = fit_projection_calibration(collect(
         _cached_evidence(data, split, limit, _evidence_cache(data, cache), raw, console,
-                         "evidence (raw projected tables)")))
+                         "evidence (raw projected tables)")), edge)
     directory = Path(out) if out is not None else models_dir()
     directory.mkdir(parents=True, exist_ok=True)
     words = ["po3d", "train", "projection", "--data", str(data), "--split", split, "--threads", str(threads)]

@@ -2,9 +2,10 @@
 against ground truth, which is read here only.
 
 Entries are those :mod:`po3d_ppl.evaluation.evidence_scores` scores: proposals matched to objects (box IoU >= 0.5),
-the true subtype's part slots, ordered pairs of matched objects. Each table gets ``sigmoid(a * logodds + b)``
-fitted by maximum likelihood (:func:`~po3d_ppl.evaluation.objects.fit_platt`), and its ECE (15 bins, the event's
-probability against its frequency) before and after. The part-look table gets one scale on its log-likelihoods
+the true subtype's part slots, ordered pairs of matched objects. Each table gets ``sigmoid(a * logodds + b)``,
+shifted at the projection's floor and ceiling (:func:`fit_edge_platt`; the module docstring of
+:mod:`~po3d_ppl.perception.projection_calibration` says why), and its ECE (15 bins, the event's probability against
+its frequency) before and after. The part-look table gets one scale on its log-likelihoods
 (:func:`fit_style_scale`), over the visible parts of the true subtype's slots.
 """
 
@@ -19,8 +20,9 @@ import torch
 from po3d_ppl import ontology
 from po3d_ppl.evidence import NUM_STYLES
 from po3d_ppl.evaluation.calibration import binned_calibration_error
-from po3d_ppl.evaluation.objects import fit_platt, match_boxes
-from po3d_ppl.perception.projection_calibration import STYLE_TABLE, TABLES, ProjectionCalibration
+from po3d_ppl.errors import InputError
+from po3d_ppl.evaluation.objects import match_boxes
+from po3d_ppl.perception.projection_calibration import STYLE_TABLE, TABLES, ProjectionCalibration, edge_states
 
 
 def _matched(evidence, scene, min_iou: float):
@@ -143,10 +145,50 @@ def fit_style_scale(tables: torch.Tensor, truth: torch.Tensor, low: float = 0.25
     return 1.0 / fit_temperature(tables, truth, low=1.0 / high, high=1.0 / low, offset=prior)
 
 
-def fit_projection_calibration(entries: dict[str, tuple[torch.Tensor, torch.Tensor]]
+#: Spread (nats) of the zero-mean normal prior on each edge shift: it keeps a shift finite when every entry at an
+#: edge has one outcome (seed 712's floor of "object i occludes j": no event in 1,329 entries), where the
+#: likelihood alone would push it to infinity.
+EDGE_SHIFT_PRIOR = 5.0
+
+
+def fit_edge_platt(x: torch.Tensor, y: torch.Tensor, edge: float | None) -> tuple[float, float, float, float]:
+    """``(a, b, floor_shift, ceiling_shift)`` of ``sigmoid(a x + b + floor_shift [x <= -edge] + ceiling_shift
+    [x >= edge])`` at the maximum of the likelihood of ``y`` times a normal prior on the shifts
+    (:data:`EDGE_SHIFT_PRIOR`); ``a > 0``, ``floor_shift <= 0 <= ceiling_shift`` (monotone). ``edge`` None: plain
+    Platt scaling (no shifts)."""
+    if x.numel() == 0 or y.all() or not y.any():
+        raise InputError("projection calibration", "Platt scaling needs both outcomes (true and false) in the "
+                                                   "validation set")
+    x, y = x.double(), y.double()
+    at_floor, at_ceiling = edge_states(x, edge) if edge is not None else (torch.zeros_like(x), torch.zeros_like(x))
+    log_a, b, floor_raw, ceiling_raw = (torch.tensor(v, dtype=torch.float64, requires_grad=True)
+                                        for v in (0.0, 0.0, 0.0, 0.0))
+    opt = torch.optim.LBFGS([log_a, b, floor_raw, ceiling_raw], lr=0.5, max_iter=500, tolerance_grad=1e-10,
+                            tolerance_change=1e-14, line_search_fn="strong_wolfe")
+
+    def shifts() -> tuple[torch.Tensor, torch.Tensor]:
+        return -torch.nn.functional.softplus(floor_raw), torch.nn.functional.softplus(ceiling_raw)
+
+    def closure():
+        opt.zero_grad()
+        low, high = shifts()
+        logits = torch.exp(log_a) * x + b + low * at_floor + high * at_ceiling
+        nll = torch.nn.functional.binary_cross_entropy_with_logits(logits, y, reduction="sum")
+        loss = (nll + (low ** 2 + high ** 2) / (2 * EDGE_SHIFT_PRIOR ** 2)) / x.numel()
+        loss.backward()
+        return loss
+
+    opt.step(closure)
+    with torch.no_grad():
+        low, high = shifts() if edge is not None else (torch.zeros(()), torch.zeros(()))
+        return float(torch.exp(log_a)), float(b), float(low), float(high)
+
+
+def fit_projection_calibration(entries: dict[str, tuple[torch.Tensor, torch.Tensor]], edge: float | None = None
                                ) -> tuple[ProjectionCalibration, dict]:
-    """The Platt scaling of every binary table with both outcomes present, the part-look scale (when
-    ``STYLE_TABLE`` entries hold recoloured and plain parts), and each table's figures before and after."""
+    """The Platt scaling (with edge states at ``edge``, the projection floor's log-odds; None: plain) of every
+    binary table with both outcomes present, the part-look scale (when ``STYLE_TABLE`` entries hold recoloured and
+    plain parts), and each table's figures before and after."""
     platt, base_rate, report = {}, {}, {}
     entries = dict(entries)
     style_scale = None
@@ -158,16 +200,18 @@ def fit_projection_calibration(entries: dict[str, tuple[torch.Tensor, torch.Tens
         report[STYLE_TABLE] = {"before": style_figures(tables, truth, recoloured), "scale": round(style_scale, 4),
                                "after": style_figures(tables, truth, recoloured, style_scale)}
     for name, (x, y) in entries.items():
-        before = table_figures(x, y) if y.numel() else {"entries": 0}
         if y.numel() == 0 or y.all() or not y.any():
-            report[name] = {"before": before, "fitted": None}
+            report[name] = {"before": table_figures(x, y) if y.numel() else {"entries": 0}, "fitted": None}
             continue
-        a, b = fit_platt(x, y, unit=1.0, what=name)
-        platt[name] = (a, b)
+        platt[name] = fit_edge_platt(x, y, edge)
         base_rate[name] = float(y.double().mean())
-        report[name] = {"before": before, "scale": round(a, 4), "bias": round(b, 4),
-                        "after": table_figures(x * a + b, y)}
-    return ProjectionCalibration(platt, base_rate, style_scale), report
+    calibration = ProjectionCalibration(platt, base_rate, style_scale, edge)
+    for name, values in platt.items():
+        x, y = entries[name]
+        report[name] = {"before": table_figures(x, y),
+                        **dict(zip(("scale", "bias", "floor_shift", "ceiling_shift"), (round(v, 4) for v in values))),
+                        "after": table_figures(calibration.posterior_logodds(name, x.double()), y)}
+    return calibration, report
 
 
 def measure(calibration: ProjectionCalibration | None, entries: dict[str, tuple[torch.Tensor, torch.Tensor]]
@@ -179,7 +223,7 @@ def measure(calibration: ProjectionCalibration | None, entries: dict[str, tuple[
             continue
         row = {"raw": table_figures(x, y)}
         if calibration is not None and name in calibration.platt:
-            a, b = calibration.platt[name]
-            row["calibrated"] = table_figures(x * a + b, y)  # the posterior at the fitted base rate
+            # the posterior at the fitted base rate
+            row["calibrated"] = table_figures(calibration.posterior_logodds(name, x), y)
         out[name] = row
     return out

@@ -1,5 +1,6 @@
-"""Calibration of the projected tables: one Platt scaling (``a * logodds + b``) per binary table of the evidence,
-and one scale on the part-look table's log-likelihoods.
+"""Calibration of the projected tables: one Platt scaling with edge states (``a * logodds + b``, shifted at the
+projection's floor and ceiling) per binary table of the evidence, and one scale on the part-look table's
+log-likelihoods.
 
 The projection (:mod:`po3d_ppl.perception.scene_parser`) reads "part p is visible", "object i is occluded by j"
 and so on off renderings of its hypotheses and squashes their weighted frequency into log-odds with a fixed floor
@@ -8,6 +9,14 @@ makes many of them wrong together. How often an entry at the floor is right is a
 answered per table on a validation seed (ground truth is read there only, by
 :func:`po3d_ppl.evaluation.projection.fit_projection_calibration`), and the scene parser applies the fitted
 scaling to every image (``ImageParser.load`` reads ``models/projection_calibration.safetensors`` when shipped).
+
+**Edge states.** An entry at the floor means "no rendering, under any hypothesis or shift, shows the event", and
+one at the ceiling "every rendering shows it": point masses, not points on the scale the entries between them
+lie on. One line through all of them is pulled flat by the thousands of floor entries (on seed 712's part
+occlusion: entries at raw log-odds 0 to 0.5 happen 48% of the time and plain Platt said 21%; at -2 to -1, 28%
+against 4%). The scaling therefore adds a shift for each edge (``floor_shift`` <= 0, ``ceiling_shift`` >= 0, so
+the map stays monotone): ``a * x + b + floor_shift [x <= -edge] + ceiling_shift [x >= edge]``, ``edge`` the
+projection floor's log-odds. Without an ``edge`` it is plain Platt scaling.
 
 **Likelihoods, not posteriors.** Platt scaling fits ``P(event | log-odds)`` on the validation entries, a posterior
 that already holds those entries' base rate. The scene model adds its own prior (``ScenePriors``) to every table,
@@ -38,44 +47,83 @@ from po3d_ppl.evidence import SceneEvidence, ScenePriors
 
 MODEL_NAME = "projection_calibration"
 WEIGHTS = "projection_calibration.safetensors"
-#: 2: ``[scale, bias, base_rate]`` per table (1 had no base rate: posteriors, which the scene model's prior
-#: counted twice).
-FORMAT = "2"
+#: 3: ``[scale, bias, floor_shift, ceiling_shift, base_rate]`` per table and the ``edge`` (2 had no edge states;
+#: 1 no base rate: posteriors, which the scene model's prior counted twice).
+FORMAT = "3"
+#: Entries within this of an edge's log-odds sit on it (the tables are stored in float32).
+EDGE_TOLERANCE = 1e-4
 RETRAIN = "refit it with `po3d train projection --data VAL` (a validation dataset) or `git checkout models/`"
 #: The binary tables of the contract that the projection fills.
 TABLES = ("occluded_logodds", "occludes_logodds", "part_visible_logodds", "part_occluded_logodds",
           "part_occludes_logodds")
 #: The categorical table scaled as a whole (one scale on its log-likelihoods).
 STYLE_TABLE = "part_style_loglik"
+#: The file's entry holding the edge log-odds.
+EDGE = "edge"
 #: The ``ScenePriors`` field of each table.
 TABLE_PRIOR = {"occluded_logodds": "occluded", "occludes_logodds": "occludes", "part_visible_logodds":
                "part_visible", "part_occluded_logodds": "part_occluded", "part_occludes_logodds": "part_occludes"}
 
 
+def edge_logodds(floor: float) -> float:
+    """The log-odds of a projected table's ceiling (minus: its floor) for a probability floor ``floor``."""
+    return math.log((1.0 - floor) / floor)
+
+
+def edge_states(table: torch.Tensor, edge: float) -> tuple[torch.Tensor, torch.Tensor]:
+    """Float masks of the entries at the floor and at the ceiling of a table floored at ``edge`` log-odds."""
+    return ((table <= -edge + EDGE_TOLERANCE).to(table.dtype), (table >= edge - EDGE_TOLERANCE).to(table.dtype))
+
+
 @dataclass(frozen=True)
 class ProjectionCalibration:
-    """``(scale, bias)`` per table of ``TABLES``, and the base rate of the entries it was fitted on (divided out:
-    see the module docstring); a table not listed is left as it is."""
+    """``(scale, bias, floor_shift, ceiling_shift)`` per table of ``TABLES`` (a pair ``(scale, bias)`` means no
+    shifts), the projection edge they were fitted at (None: no edge states), and the base rate of the entries it
+    was fitted on (divided out: see the module docstring); a table not listed is left as it is."""
 
-    platt: dict[str, tuple[float, float]] = field(default_factory=dict)
+    platt: dict[str, tuple[float, ...]] = field(default_factory=dict)
     base_rate: dict[str, float] = field(default_factory=dict)
     #: Multiplies ``part_style_loglik`` (None: left as it is).
     style_scale: float | None = None
+    #: The projection's floor log-odds (:func:`edge_logodds`) the shifts apply at; None: plain Platt scaling.
+    edge: float | None = None
 
     def __post_init__(self) -> None:
         if self.style_scale is not None and not (math.isfinite(self.style_scale) and self.style_scale > 0):
             raise InputError("ProjectionCalibration", f"the part-look scale must be finite and > 0, got "
                                                       f"{self.style_scale}")
-        for name, (scale, bias) in self.platt.items():
+        if self.edge is not None and not (math.isfinite(self.edge) and self.edge > 0):
+            raise InputError("ProjectionCalibration", f"the edge log-odds must be finite and > 0, got {self.edge}")
+        padded = {}
+        for name, values in self.platt.items():
             if name not in TABLES:
                 raise InputError("ProjectionCalibration", f"unknown table {name!r} (known: {', '.join(TABLES)})")
-            if not (math.isfinite(scale) and math.isfinite(bias) and scale > 0):
-                raise InputError("ProjectionCalibration", f"{name}: scale must be > 0 and both finite, got "
-                                                          f"{(scale, bias)}")
+            if len(values) not in (2, 4):
+                raise InputError("ProjectionCalibration", f"{name}: expected (scale, bias) or (scale, bias, "
+                                                          f"floor_shift, ceiling_shift), got {values}")
+            scale, bias, floor_shift, ceiling_shift = (*map(float, values), 0.0, 0.0)[:4]
+            if not (all(map(math.isfinite, (scale, bias, floor_shift, ceiling_shift))) and scale > 0):
+                raise InputError("ProjectionCalibration", f"{name}: scale must be > 0 and all finite, got {values}")
+            if floor_shift > 0 or ceiling_shift < 0:
+                raise InputError("ProjectionCalibration", f"{name}: the floor shift must be <= 0 and the ceiling "
+                                                          f"shift >= 0 (a monotone map), got {values}")
+            if (floor_shift or ceiling_shift) and self.edge is None:
+                raise InputError("ProjectionCalibration", f"{name}: edge shifts need the edge they apply at")
+            padded[name] = (scale, bias, floor_shift, ceiling_shift)
+        object.__setattr__(self, "platt", padded)
         for name, rate in self.base_rate.items():
             if name not in self.platt or not 0.0 < rate < 1.0:
                 raise InputError("ProjectionCalibration", f"{name}: a base rate needs a fitted table and a value "
                                                           f"in (0, 1), got {rate}")
+
+    def posterior_logodds(self, name: str, table: torch.Tensor) -> torch.Tensor:
+        """The fitted ``P(event | entry)`` of table ``name``'s raw entries, as log-odds."""
+        scale, bias, floor_shift, ceiling_shift = self.platt[name]
+        out = table * scale + bias
+        if self.edge is not None:
+            at_floor, at_ceiling = edge_states(table, self.edge)
+            out = out + floor_shift * at_floor + ceiling_shift * at_ceiling
+        return out
 
     def prior_logodds(self, name: str) -> float:
         """The log-odds of the base rate divided out of table ``name`` (0 when none was recorded: a rate of 0.5)."""
@@ -93,9 +141,9 @@ class ProjectionCalibration:
         """The evidence with every calibrated table rescaled to a likelihood ratio (``occludes`` keeps its ignored
         diagonal at 0)."""
         changes = {}
-        for name, (scale, bias) in self.platt.items():
+        for name in self.platt:
             table = getattr(evidence, name)
-            scaled = table * scale + bias - self.prior_logodds(name)
+            scaled = self.posterior_logodds(name, table) - self.prior_logodds(name)
             if name == "occludes_logodds" and table.numel():
                 scaled = scaled * (1 - torch.eye(table.shape[0], dtype=table.dtype, device=table.device))
             changes[name] = scaled
@@ -111,15 +159,20 @@ class ProjectionCalibration:
                    for name, values in self.platt.items()}
         if self.style_scale is not None:
             tensors[STYLE_TABLE] = torch.tensor([self.style_scale], dtype=torch.float64)
+        if self.edge is not None:
+            tensors[EDGE] = torch.tensor([self.edge], dtype=torch.float64)
         save_file(tensors, str(path), metadata={"format": FORMAT})
         path.chmod(0o644)
         return path
 
     def to_dict(self) -> dict[str, list[float]]:
-        """``{table: [scale, bias, base_rate]}``, and ``{"part_style_loglik": [scale]}`` when fitted."""
+        """``{table: [scale, bias, floor_shift, ceiling_shift, base_rate]}``, ``{"part_style_loglik": [scale]}``
+        and ``{"edge": [log-odds]}`` when fitted."""
         out = {name: [*values, self.base_rate.get(name)] for name, values in self.platt.items()}
         if self.style_scale is not None:
             out[STYLE_TABLE] = [self.style_scale]
+        if self.edge is not None:
+            out[EDGE] = [self.edge]
         return out
 
 
@@ -132,10 +185,10 @@ def load_projection_calibration(directory: Path | str | None = None) -> Projecti
         return None
     path, _, tensors = load_tensors(MODEL_NAME, directory, RETRAIN, FORMAT)
     try:
-        binary = {name: v for name, v in tensors.items() if name != STYLE_TABLE}
-        style = tensors.get(STYLE_TABLE)
-        return ProjectionCalibration({name: (float(v[0]), float(v[1])) for name, v in binary.items()},
-                                     {name: float(v[2]) for name, v in binary.items()},
-                                     None if style is None else float(style[0]))
+        binary = {name: v for name, v in tensors.items() if name not in (STYLE_TABLE, EDGE)}
+        style, edge = tensors.get(STYLE_TABLE), tensors.get(EDGE)
+        return ProjectionCalibration({name: tuple(float(x) for x in v[:4]) for name, v in binary.items()},
+                                     {name: float(v[4]) for name, v in binary.items()},
+                                     None if style is None else float(style[0]), None if edge is None else float(edge[0]))
     except (ValueError, IndexError, TypeError, InputError) as exc:
         raise ModelFileError(f"cannot load the projection calibration from {path} ({exc}); {RETRAIN}") from None
