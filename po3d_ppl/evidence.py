@@ -78,18 +78,37 @@ class ScenePriors:
     part_recoloured: float = 0.15
     part_occluded: float = 0.2
     part_occludes: float = 0.05
+    #: The world's recolouring rule (:mod:`po3d_ppl.reasoning.part_counts`): every object has exactly
+    #: ``min(max_recoloured_parts, its visible parts)`` recoloured parts. None: each visible part is recoloured
+    #: independently at ``part_recoloured``.
+    max_recoloured_parts: int | None = None
+    #: Under the rule, a recoloured part's colour is never the object's own.
+    recoloured_unlike_body: bool = False
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            v = getattr(self, f.name)
+        for name in RATE_FIELDS:
+            v = getattr(self, name)
             if not 0.0 < v < 1.0:
-                raise InputError(f"priors.{f.name}", f"must be a probability in (0, 1), got {v}")
+                raise InputError(f"priors.{name}", f"must be a probability in (0, 1), got {v}")
+        cap = self.max_recoloured_parts
+        if cap is not None and not (isinstance(cap, int) and not isinstance(cap, bool) and cap >= 1):
+            raise InputError("priors.max_recoloured_parts", f"must be an integer >= 1 or None, got {cap!r}")
+        if not isinstance(self.recoloured_unlike_body, bool):
+            raise InputError("priors.recoloured_unlike_body", f"must be true or false, got "
+                                                               f"{self.recoloured_unlike_body!r}")
+        if self.recoloured_unlike_body and cap is None:
+            raise InputError("priors.recoloured_unlike_body", "is part of the recolouring rule: set "
+                                                               "max_recoloured_parts too")
 
     def part_state_probs(self) -> torch.Tensor:
         """Prior over the 18 part states."""
         vis = self.part_visible
         recol = vis * self.part_recoloured / (NUM_STYLES - 1)
         return torch.tensor([1.0 - vis, vis * (1.0 - self.part_recoloured)] + [recol] * (NUM_STYLES - 1), dtype=DTYPE)
+
+
+#: The ``ScenePriors`` fields that are probabilities (the rest describe the recolouring rule).
+RATE_FIELDS = ("exists", "occluded", "occludes", "part_visible", "part_recoloured", "part_occluded", "part_occludes")
 
 
 @dataclass

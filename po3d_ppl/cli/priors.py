@@ -45,6 +45,11 @@ def train_priors(
         table.add_row(name, f"{getattr(hand_set, name):.3f}", f"{getattr(fitted, name):.4f}",
                       f"{rate.hits} / {rate.total}")
     table.add_row("exists", f"{hand_set.exists:.3f}", f"{fitted.exists:.3f}", "(kept: a parser's proposals)")
+    rule = rates.count_rule_objects
+    table.add_row("max_recoloured_parts", "none", str(fitted.max_recoloured_parts),
+                  f"{rule.hits} / {rule.total} objects with exactly min({rates.max_recoloured}, visible parts)")
+    table.add_row("recoloured_unlike_body", "false", str(fitted.recoloured_unlike_body).lower(),
+                  f"{rates.unlike_body.hits} / {rates.unlike_body.total} recoloured parts")
     console = Console()
     console.print(table)
     if dry_run:
@@ -56,7 +61,9 @@ def train_priors(
     write_entry(MODEL_NAME, [save_priors(fitted, directory)], directory, command=shlex.join(words),
                 data_seed=dataset.manifest.get("seed"), data_config=dataset.manifest.get("config"),
                 metrics={"scenes": rates.scenes, "hand_set": asdict(hand_set),
-                         "counts": {k: [v.hits, v.total] for k, v in rates.rates.items()}})
+                         "counts": {k: [v.hits, v.total] for k, v in rates.rates.items()},
+                         "recolouring_rule": {"objects": [rule.hits, rule.total],
+                                              "unlike_body": [rates.unlike_body.hits, rates.unlike_body.total]}})
     console.print(f"fitted priors -> {directory / 'priors.json'} (manifest entry {MODEL_NAME!r})", markup=False,
                   highlight=False)
 

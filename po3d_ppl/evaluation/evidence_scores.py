@@ -7,7 +7,9 @@ log-odds 0) of each table's posterior on its own: the table (a likelihood) plus 
 
 - object subtype, colour, material and size accuracy;
 - part attribute accuracy over the visible parts of the true subtype (the world's rule: recoloured, or >= 20
-  visible pixels): plain vs recoloured, and when recoloured its colour and material, all three right;
+  visible pixels): plain vs recoloured, and when recoloured its colour and material, all three right; read at the
+  scene model's part-state posterior given that the part is visible (with the recolouring rule when the priors
+  hold it: :mod:`po3d_ppl.reasoning.part_counts`);
 - object occlusion relations: F1 of "object i is occluded by object j" over ordered pairs of matched objects;
 - part occlusion: F1 of "part p of object i is occluded" over the parts of the true subtype.
 """
@@ -33,10 +35,13 @@ def table_prior_logodds(priors: ScenePriors, table: str) -> float:
     return math.log(p / (1.0 - p))
 
 
-def visible_style_log_prior(priors: ScenePriors) -> torch.Tensor:
-    """log P(style | visible) over the 17 styles: plain, or recoloured in one of 16 looks."""
-    states = priors.part_state_probs()[1:]
-    return torch.log(states / states.sum())
+def part_state_log_posterior(evidence, priors: ScenePriors) -> torch.Tensor:
+    """``[N, 21, P, 18]`` log posterior of each part's state (hidden, plain, 16 looks) in the scene model: its
+    part-state factor (with the recolouring rule when ``priors`` hold it) times its prior."""
+    from po3d_ppl.reasoning.part_counts import part_state_loglik
+
+    joint = part_state_loglik(evidence, priors) + torch.log(priors.part_state_probs()).to(evidence.part_style_loglik)
+    return torch.log_softmax(joint, -1)
 
 
 @dataclass
@@ -55,7 +60,7 @@ class EvidenceCounts:
         from po3d_ppl.perception.simulated import part_visible
 
         c = self.counts
-        style_prior = visible_style_log_prior(self.priors).to(evidence.part_style_loglik.dtype)
+        part_states = part_state_log_posterior(evidence, self.priors) if evidence.num_objects else None
         objs = scene.objects
         boxes = np.array([o.annotation.bbox for o in objs], dtype=np.float64).reshape(-1, 4)
         if evidence.boxes is None:
@@ -77,7 +82,7 @@ class EvidenceCounts:
                 c["visible_parts"] += 1
                 style = o.parts.get(raw)
                 truth = style_index(style.color, style.material) if style else 0
-                said = int((evidence.part_style_loglik[i, s, p] + style_prior).argmax())
+                said = int(part_states[i, s, p, 1:].argmax())  # the look given that the part is visible
                 c["part_style_ok"] += said == truth
                 c["part_look_ok"] += (said > 0) == (truth > 0)
                 if truth > 0:

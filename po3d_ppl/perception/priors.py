@@ -17,13 +17,14 @@ world's rates enter.
 from __future__ import annotations
 
 import json
+from collections import Counter
 from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 
 from po3d_ppl import ontology
 from po3d_ppl.errors import InputError, ModelFileError
-from po3d_ppl.evidence import ScenePriors
+from po3d_ppl.evidence import RATE_FIELDS, ScenePriors
 from po3d_ppl.perception.simulated import part_visible
 from po3d_ppl.world.scene import Scene
 
@@ -46,14 +47,35 @@ class Rate:
 
 @dataclass
 class WorldRates:
-    """The rates of every binary latent of the scene model, by ``ScenePriors`` field."""
+    """The rates of every binary latent of the scene model, by ``ScenePriors`` field, and what the scenes say of
+    the recolouring rule (:mod:`po3d_ppl.reasoning.part_counts`)."""
 
     rates: dict[str, Rate] = field(default_factory=lambda: {name: Rate() for name in FITTED})
     scenes: int = 0
+    #: Objects by (recoloured parts, visible parts).
+    recoloured_counts: Counter = field(default_factory=Counter)
+    #: Recoloured parts whose colour differs from their object's.
+    unlike_body: Rate = field(default_factory=Rate)
+
+    @property
+    def max_recoloured(self) -> int:
+        return max((k for k, _ in self.recoloured_counts), default=0)
+
+    @property
+    def count_rule_objects(self) -> Rate:
+        """Objects with exactly ``min(max_recoloured, visible parts)`` recoloured parts."""
+        cap = self.max_recoloured
+        return Rate(sum(n for (k, m), n in self.recoloured_counts.items() if k == min(cap, m)),
+                    sum(self.recoloured_counts.values()))
 
     def priors(self, base: ScenePriors = ScenePriors()) -> ScenePriors:
-        """``base`` with every fitted field replaced by its smoothed rate."""
-        return replace(base, **{name: rate.smoothed for name, rate in self.rates.items()})
+        """``base`` with every fitted field replaced by its smoothed rate, and the recolouring rule where every
+        counted object keeps it (a rule with exceptions is not the world's; the independent prior stays)."""
+        rule = self.count_rule_objects
+        holds = self.max_recoloured >= 1 and rule.hits == rule.total
+        unlike = holds and self.unlike_body.total > 0 and self.unlike_body.hits == self.unlike_body.total
+        return replace(base, **{name: rate.smoothed for name, rate in self.rates.items()},
+                       max_recoloured_parts=self.max_recoloured if holds else None, recoloured_unlike_body=unlike)
 
 
 #: The ``ScenePriors`` fields a scene tells (``exists`` is about proposals, not scenes).
@@ -72,8 +94,10 @@ def count_rates(scenes: Iterable[Scene]) -> WorldRates:
             for j in range(len(objects)):
                 if j != i:
                     r["occludes"].add(j in obj.occluded_by)
+            shown = 0
             for raw in ontology.PARTS[obj.subtype]:
                 visible = part_visible(obj, raw)
+                shown += visible
                 r["part_visible"].add(visible)
                 if visible:
                     r["part_recoloured"].add(raw in obj.parts)
@@ -82,6 +106,9 @@ def count_rates(scenes: Iterable[Scene]) -> WorldRates:
                 for j in range(len(objects)):
                     if j != i:
                         r["part_occludes"].add(j in by)
+            out.recoloured_counts[(len(obj.parts), shown)] += 1
+            for style in obj.parts.values():
+                out.unlike_body.add(style.color != obj.color)
     if out.scenes == 0:
         raise InputError("scenes", "no scenes to count rates over; give a split with at least one scene")
     return out
@@ -120,6 +147,6 @@ def load_priors(directory: Path | str | None = None) -> ScenePriors:
         unknown = set(values) - known
         if unknown:
             raise ValueError(f"unknown fields {sorted(unknown)}")
-        return ScenePriors(**{k: float(v) for k, v in values.items()})
+        return ScenePriors(**{k: (float(v) if k in RATE_FIELDS else v) for k, v in values.items()})
     except (ValueError, TypeError, AttributeError, InputError) as exc:
         raise ModelFileError(f"cannot read the priors from {path} ({exc}); {RETRAIN}") from None

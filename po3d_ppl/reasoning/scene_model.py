@@ -31,6 +31,7 @@ from po3d_ppl import ontology
 from po3d_ppl.errors import Po3dError
 from po3d_ppl.evidence import DTYPE, SceneEvidence, ScenePriors
 from po3d_ppl.reasoning import values
+from po3d_ppl.reasoning.part_counts import part_state_loglik
 from po3d_ppl.reasoning.latents import PLATE_DIMS
 
 
@@ -88,12 +89,8 @@ def scene_model(evidence: SceneEvidence, priors: ScenePriors = ScenePriors()) ->
 
     with models, objects, parts:
         by_model = lambda t: t.transpose(0, 1)  # noqa: E731  [N, 21, P, ...] -> [21, N, P, ...]
-        # A hidden part shows no recolouring: its attribute reading is scored as the plain style's (column 0).
-        # Scoring it 0 instead would give "hidden" a likelihood of 1 for every reading, more than any visible
-        # state can reach, and pull every recoloured part towards "hidden".
-        state_loglik = torch.cat(
-            [evidence.part_style_loglik[..., :1],
-             (evidence.part_visible_logodds.unsqueeze(-1) + evidence.part_style_loglik)], dim=-1)
+        # hidden, plain or one of 16 looks; with the world's recolouring rule when the priors hold it
+        state_loglik = part_state_loglik(evidence, priors)
         latents["part_state"] = _categorical("part_state", priors.part_state_probs(), by_model(state_loglik))
         latents["part_occluded"] = _bernoulli("part_occluded", priors.part_occluded,
                                               by_model(evidence.part_occluded_logodds))
