@@ -75,22 +75,19 @@ def _rule_marginals(joint: torch.Tensor, evidence: SceneEvidence, priors: SceneP
     # states: (visible parts so far 0..slots, recoloured parts so far 0..cap)
     never = torch.full((n, subtypes, slots + 1, cap + 1), _NEVER, dtype=DTYPE, device=device)
 
+    def seen(state: torch.Tensor, recoloured_too: bool, forward: bool) -> torch.Tensor:
+        """``state`` moved by one visible part (and one recoloured part), forward or backward in the counts."""
+        pad = (1 if recoloured_too else 0, 0, 1, 0) if forward else (0, 1 if recoloured_too else 0, 0, 1)
+        kept = state[..., :-1, :-1] if recoloured_too else state[..., :-1, :]
+        if not forward:
+            kept = state[..., 1:, 1:] if recoloured_too else state[..., 1:, :]
+        return torch.nn.functional.pad(kept, pad, value=_NEVER)
+
     def advance(state: torch.Tensor, p: int, forward: bool) -> torch.Tensor:
         """Add part ``p`` to the counts (forward) or take it off (backward)."""
         h, pl, rc = (t[..., p, None, None] for t in (hidden, plain, recoloured))
-        out = state + h
-        shifted = never.clone()
-        if forward:
-            shifted[..., 1:, :] = state[..., :-1, :] + pl
-            out = torch.logaddexp(out, shifted)
-            shifted = never.clone()
-            shifted[..., 1:, 1:] = state[..., :-1, :-1] + rc
-        else:
-            shifted[..., :-1, :] = state[..., 1:, :] + pl
-            out = torch.logaddexp(out, shifted)
-            shifted = never.clone()
-            shifted[..., :-1, :-1] = state[..., 1:, 1:] + rc
-        return torch.logaddexp(out, shifted)
+        return torch.logsumexp(torch.stack([state + h, seen(state, False, forward) + pl,
+                                            seen(state, True, forward) + rc]), 0)
 
     visible = torch.arange(slots + 1, device=device, dtype=DTYPE)[:, None]
     chosen = torch.arange(cap + 1, device=device, dtype=DTYPE)[None, :]
@@ -112,15 +109,13 @@ def _rule_marginals(joint: torch.Tensor, evidence: SceneEvidence, priors: SceneP
     out = torch.empty_like(joint)
     for p in range(slots):
         before, after = forward[p], backward[p + 1]
-        stay = torch.logsumexp((before + after).flatten(-2), -1)
-        seen = never.clone()
-        seen[..., :-1, :] = after[..., 1:, :]
-        as_plain = torch.logsumexp((before + seen).flatten(-2), -1)
-        seen = never.clone()
-        seen[..., :-1, :-1] = after[..., 1:, 1:]
-        as_recoloured = torch.logsumexp((before + seen).flatten(-2), -1)
-        out[:, :, p] = torch.cat([(stay + hidden[..., p])[..., None], (as_plain + plain[..., p])[..., None],
-                                  as_recoloured[..., None] + looks[..., p, :]], -1)
+
+        def total(after_part: torch.Tensor) -> torch.Tensor:
+            return torch.logsumexp((before + after_part).flatten(-2), -1)
+
+        out[:, :, p] = torch.cat([(total(after) + hidden[..., p])[..., None],
+                                  (total(seen(after, False, False)) + plain[..., p])[..., None],
+                                  total(seen(after, True, False))[..., None] + looks[..., p, :]], -1)
     return out - torch.logsumexp(out, -1, keepdim=True)
 
 
