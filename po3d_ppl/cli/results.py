@@ -225,7 +225,9 @@ def _markdown(command, run, perception, rows, reports, by_variant, priors_md, po
         "## Perception", "", _evidence_markdown(perception), "",
         "## Accuracy (paper's Table 1 columns, %)", "",
         "All methods reason over the same perception evidence per image; `oracle` is the reference executor on "
-        "the true scene. `ours_calibrated` has the same top answers as `ours` (a monotone map).", "",
+        "the true scene. `ours_calibrated` is `ours` through the shipped answer calibration (monotone over the "
+        "answers, the invalid mass kept: the top outcome changes only where the best answer and the invalid mass are "
+        "close).", "",
         table1_markdown(rows), "", "### Per question file (%)", "", _per_file(run, run.variants), "",
         "## Difficulty (paper section 5.4)", "",
     ]
