@@ -28,7 +28,7 @@ def main() -> None:
     import torch
 
     from po3d_ppl.cli.evaluate import resolve_priors
-    from po3d_ppl.evaluation.backends import ImageBackend
+    from po3d_ppl.evaluation.backends import ImageBackend, Observation
     from po3d_ppl.evaluation.cache import EvidenceCache
     from po3d_ppl.evaluation.objects import match_boxes
     from po3d_ppl.evaluation.runner import evaluate, parse_methods
@@ -43,7 +43,8 @@ def main() -> None:
     detected: dict[int, set[int]] = {}
     for index in sorted({r.item.image_index for r in run.records}):
         scene = dataset.scene(index)
-        evidence = store.get(dataset.image_path(index), backend.identity(), lambda: backend.evidence(None))
+        seen = Observation(index, dataset.image_path(index), scene)
+        evidence = store.get(seen.image_path, backend.identity(), lambda: backend.evidence(seen))  # cached above
         boxes = np.array([o.annotation.bbox for o in scene.objects], dtype=np.float64).reshape(-1, 4)
         detected[index] = {j for _, j in match_boxes(evidence.boxes.numpy(), boxes, 0.5)}
     tally: dict[tuple[str, bool], list[int]] = defaultdict(lambda: [0, 0])

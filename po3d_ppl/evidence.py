@@ -108,7 +108,7 @@ class ScenePriors:
 
 
 #: The ``ScenePriors`` fields that are probabilities (the rest describe the recolouring rule).
-RATE_FIELDS = ("exists", "occluded", "occludes", "part_visible", "part_recoloured", "part_occluded", "part_occludes")
+RATE_FIELDS = tuple(f.name for f in fields(ScenePriors) if f.type == "float")
 
 
 @dataclass

@@ -20,8 +20,7 @@ import torch
 from po3d_ppl import ontology
 from po3d_ppl.evidence import NUM_STYLES
 from po3d_ppl.evaluation.calibration import binned_calibration_error
-from po3d_ppl.errors import InputError
-from po3d_ppl.evaluation.objects import match_boxes
+from po3d_ppl.evaluation.objects import fit_platt, match_boxes
 from po3d_ppl.perception.projection_calibration import STYLE_TABLE, TABLES, ProjectionCalibration, edge_states
 
 
@@ -155,15 +154,18 @@ def fit_edge_platt(x: torch.Tensor, y: torch.Tensor, edge: float | None) -> tupl
     """``(a, b, floor_shift, ceiling_shift)`` of ``sigmoid(a x + b + floor_shift [x <= -edge] + ceiling_shift
     [x >= edge])`` at the maximum of the likelihood of ``y`` times a normal prior on the shifts
     (:data:`EDGE_SHIFT_PRIOR`); ``a > 0``, ``floor_shift <= 0 <= ceiling_shift`` (monotone). ``edge`` None: plain
-    Platt scaling (no shifts)."""
-    if x.numel() == 0 or y.all() or not y.any():
-        raise InputError("projection calibration", "Platt scaling needs both outcomes (true and false) in the "
-                                                   "validation set")
+    Platt scaling (:func:`~po3d_ppl.evaluation.objects.fit_platt`, which also checks that both outcomes occur)."""
+    a, b = fit_platt(x, y, unit=1.0, what="projection calibration")
+    if edge is None:
+        return a, b, 0.0, 0.0
+    # start at a = 1, b = 0, shifts -+0.69 rather than at the plain fit: both reach the optimum, but LBFGS stops at
+    # slightly different points along flat directions (seed 712's occluder ceiling shift: 0.011 against 0.035), and
+    # this start reproduces the shipped file byte for byte
     x, y = x.double(), y.double()
-    at_floor, at_ceiling = edge_states(x, edge) if edge is not None else (torch.zeros_like(x), torch.zeros_like(x))
-    log_a, b, floor_raw, ceiling_raw = (torch.tensor(v, dtype=torch.float64, requires_grad=True)
-                                        for v in (0.0, 0.0, 0.0, 0.0))
-    opt = torch.optim.LBFGS([log_a, b, floor_raw, ceiling_raw], lr=0.5, max_iter=500, tolerance_grad=1e-10,
+    at_floor, at_ceiling = edge_states(x, edge)
+    log_a, bias, floor_raw, ceiling_raw = (torch.tensor(v, dtype=torch.float64, requires_grad=True)
+                                           for v in (0.0, 0.0, 0.0, 0.0))
+    opt = torch.optim.LBFGS([log_a, bias, floor_raw, ceiling_raw], lr=0.5, max_iter=500, tolerance_grad=1e-10,
                             tolerance_change=1e-14, line_search_fn="strong_wolfe")
 
     def shifts() -> tuple[torch.Tensor, torch.Tensor]:
@@ -172,7 +174,7 @@ def fit_edge_platt(x: torch.Tensor, y: torch.Tensor, edge: float | None) -> tupl
     def closure():
         opt.zero_grad()
         low, high = shifts()
-        logits = torch.exp(log_a) * x + b + low * at_floor + high * at_ceiling
+        logits = torch.exp(log_a) * x + bias + low * at_floor + high * at_ceiling
         nll = torch.nn.functional.binary_cross_entropy_with_logits(logits, y, reduction="sum")
         loss = (nll + (low ** 2 + high ** 2) / (2 * EDGE_SHIFT_PRIOR ** 2)) / x.numel()
         loss.backward()
@@ -180,8 +182,8 @@ def fit_edge_platt(x: torch.Tensor, y: torch.Tensor, edge: float | None) -> tupl
 
     opt.step(closure)
     with torch.no_grad():
-        low, high = shifts() if edge is not None else (torch.zeros(()), torch.zeros(()))
-        return float(torch.exp(log_a)), float(b), float(low), float(high)
+        low, high = shifts()
+        return float(torch.exp(log_a)), float(bias), float(low), float(high)
 
 
 def fit_projection_calibration(entries: dict[str, tuple[torch.Tensor, torch.Tensor]], edge: float | None = None

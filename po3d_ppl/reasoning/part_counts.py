@@ -27,6 +27,13 @@ from po3d_ppl.evidence import DTYPE, NUM_STYLES, SceneEvidence, ScenePriors
 
 #: Part slots each subtype uses (the rest of the ``MAX_PARTS`` axis is padding).
 _SLOTS_USED = torch.tensor([len(ontology.PARTS[s]) for s in ontology.SUBTYPES])
+
+
+def _used_slots(device: torch.device) -> torch.Tensor:
+    """``[21, P]`` whether each subtype uses each part slot."""
+    return torch.arange(ontology.MAX_PARTS, device=device)[None, :] < _SLOTS_USED.to(device)[:, None]
+
+
 #: Colour index of each recoloured look (style ``1 + colour * materials + material``).
 _LOOK_COLOUR = torch.arange(NUM_STYLES - 1) // len(ontology.MATERIALS)
 #: Log-weight standing in for "impossible" (finite, so that no enumeration sum meets inf - inf).
@@ -49,16 +56,17 @@ def part_state_loglik(evidence: SceneEvidence, priors: ScenePriors) -> torch.Ten
     if priors.max_recoloured_parts is None or evidence.num_objects == 0:
         return independent
     log_prior = torch.log(priors.part_state_probs()).to(independent)
-    marginal = _rule_marginals(independent + log_prior, evidence, priors)
-    used = (torch.arange(ontology.MAX_PARTS, device=independent.device)[None, :]
-            < _SLOTS_USED.to(independent.device)[:, None])  # [21, P]
+    used = _used_slots(independent.device)
+    marginal = _rule_marginals(independent + log_prior, evidence, priors, used)
     return torch.where(used[None, :, :, None], marginal - log_prior, independent)
 
 
-def _rule_marginals(joint: torch.Tensor, evidence: SceneEvidence, priors: ScenePriors) -> torch.Tensor:
+def _rule_marginals(joint: torch.Tensor, evidence: SceneEvidence, priors: ScenePriors, used: torch.Tensor
+                    ) -> torch.Tensor:
     """Log posterior ``[N, 21, P, 18]`` of each part's state under the rule, from each part's independent log
-    prior x likelihood ``joint``. The independent prior's recolouring rate is divided out of the looks and the
-    rule's count put in its place: each look of a recoloured part has prior 1 / (number of looks allowed)."""
+    prior x likelihood ``joint`` (the slots not ``used`` are padding: never visible). The independent prior's
+    recolouring rate is divided out of the looks and the rule's count put in its place: each look of a recoloured
+    part has prior 1 / (number of looks allowed)."""
     device = joint.device
     n, subtypes, slots, _ = joint.shape
     cap = int(priors.max_recoloured_parts)
@@ -66,22 +74,19 @@ def _rule_marginals(joint: torch.Tensor, evidence: SceneEvidence, priors: SceneP
     hidden, plain, looks = joint[..., 0], joint[..., 1], joint[..., 2:]
     plain = plain - math.log(1.0 - rate)
     looks = looks - math.log(rate / (NUM_STYLES - 1)) + _look_log_prior(evidence, priors)[:, None, None, :]
-    used = torch.arange(slots, device=device)[None, :] < _SLOTS_USED.to(device)[:, None]  # [21, P]
-    hidden = torch.where(used, hidden, torch.zeros((), dtype=DTYPE, device=device))  # padding: never visible
+    hidden = torch.where(used, hidden, torch.zeros((), dtype=DTYPE, device=device))
     plain = torch.where(used, plain, torch.full((), _NEVER, dtype=DTYPE, device=device))
     looks = torch.where(used[..., None], looks, torch.full((), _NEVER, dtype=DTYPE, device=device))
     recoloured = torch.logsumexp(looks, -1)
 
     # states: (visible parts so far 0..slots, recoloured parts so far 0..cap)
-    never = torch.full((n, subtypes, slots + 1, cap + 1), _NEVER, dtype=DTYPE, device=device)
 
     def seen(state: torch.Tensor, recoloured_too: bool, forward: bool) -> torch.Tensor:
         """``state`` moved by one visible part (and one recoloured part), forward or backward in the counts."""
-        pad = (1 if recoloured_too else 0, 0, 1, 0) if forward else (0, 1 if recoloured_too else 0, 0, 1)
-        kept = state[..., :-1, :-1] if recoloured_too else state[..., :-1, :]
-        if not forward:
-            kept = state[..., 1:, 1:] if recoloured_too else state[..., 1:, :]
-        return torch.nn.functional.pad(kept, pad, value=_NEVER)
+        r = int(recoloured_too)
+        if forward:
+            return torch.nn.functional.pad(state[..., :-1, :cap + 1 - r], (r, 0, 1, 0), value=_NEVER)
+        return torch.nn.functional.pad(state[..., 1:, r:], (0, r, 0, 1), value=_NEVER)
 
     def advance(state: torch.Tensor, p: int, forward: bool) -> torch.Tensor:
         """Add part ``p`` to the counts (forward) or take it off (backward)."""
@@ -97,11 +102,12 @@ def _rule_marginals(joint: torch.Tensor, evidence: SceneEvidence, priors: SceneP
                    - torch.lgamma((visible - chosen).clamp_min(0) + 1))
     end = torch.where(allowed, -log_choices, torch.full((), _NEVER, dtype=DTYPE, device=device))
 
-    forward = [never.clone()]
-    forward[0][..., 0, 0] = 0.0
+    start = torch.full((n, subtypes, slots + 1, cap + 1), _NEVER, dtype=DTYPE, device=device)
+    start[..., 0, 0] = 0.0  # no part counted yet
+    forward = [start]
     for p in range(slots):
         forward.append(advance(forward[-1], p, forward=True))
-    backward = [end.expand_as(never).clone()]
+    backward = [end.expand_as(start)]
     for p in range(slots - 1, -1, -1):
         backward.append(advance(backward[-1], p, forward=False))
     backward.reverse()  # backward[p]: parts p.. given the counts before p
