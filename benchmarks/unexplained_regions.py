@@ -38,7 +38,7 @@ def main() -> None:
 
     from po3d_ppl.evaluation.objects import match_boxes
     from po3d_ppl.perception.image_input import load_image
-    from po3d_ppl.perception.object_parser import _chroma, _default_background
+    from po3d_ppl.perception.object_parser import _chroma, _default_background, _rgb8
     from po3d_ppl.perception.scene_parser import ImageParser
     from po3d_ppl.questions.dataset import load_dataset
     from po3d_ppl.world import rle
@@ -54,7 +54,7 @@ def main() -> None:
     for index in track(indices, description="parsing"):
         scene, image = dataset.scene(index), load_image(dataset.image_path(index))
         parsed = image_parser.parse(image)
-        foreground = background.foreground((image.pixels.permute(1, 2, 0).numpy() * 255).round().astype(np.uint8))
+        foreground = background.foreground(_rgb8(image))
         chroma = _chroma(image).numpy()
         seen = parsed.object_ids if parsed.object_ids is not None else np.full(foreground.shape, -1)
         unexplained = cv2.morphologyEx((foreground & (seen < 0)).astype(np.uint8), cv2.MORPH_OPEN,

@@ -232,13 +232,18 @@ def summarise(outcomes: Sequence[ImageOutcome], min_pixels: int = 200, occluded_
     return figures
 
 
+def require_both_outcomes(labels: torch.Tensor, what: str) -> None:
+    """A calibration fit needs true and false labels: say so, naming ``what``, when one is missing."""
+    if labels.numel() == 0 or labels.all() or not labels.any():
+        raise InputError(what, "Platt scaling needs both outcomes (true and false) in the validation set")
+
+
 def fit_platt(scores: torch.Tensor, labels: torch.Tensor, unit: float = 100.0, what: str = "existence",
               ) -> tuple[float, float]:
     """(a, b) of ``sigmoid(a * score + b)`` minimising the NLL of ``labels`` (LBFGS; a kept > 0). ``unit`` is the
     scores' typical size (raw render-and-compare scores: 100; log-odds: 1), so the optimiser starts near a = 1 /
     unit."""
-    if scores.numel() == 0 or labels.all() or not labels.any():
-        raise InputError(what, "Platt scaling needs both outcomes (true and false) in the validation set")
+    require_both_outcomes(labels, what)
     x, y = scores.double(), labels.double()
     log_a = torch.zeros((), dtype=torch.float64, requires_grad=True)
     b = torch.zeros((), dtype=torch.float64, requires_grad=True)

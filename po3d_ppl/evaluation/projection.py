@@ -20,7 +20,7 @@ import torch
 from po3d_ppl import ontology
 from po3d_ppl.evidence import NUM_STYLES
 from po3d_ppl.evaluation.calibration import binned_calibration_error
-from po3d_ppl.evaluation.objects import fit_platt, match_boxes
+from po3d_ppl.evaluation.objects import fit_platt, match_boxes, require_both_outcomes
 from po3d_ppl.perception.projection_calibration import STYLE_TABLE, TABLES, ProjectionCalibration, edge_states
 
 
@@ -154,10 +154,10 @@ def fit_edge_platt(x: torch.Tensor, y: torch.Tensor, edge: float | None) -> tupl
     """``(a, b, floor_shift, ceiling_shift)`` of ``sigmoid(a x + b + floor_shift [x <= -edge] + ceiling_shift
     [x >= edge])`` at the maximum of the likelihood of ``y`` times a normal prior on the shifts
     (:data:`EDGE_SHIFT_PRIOR`); ``a > 0``, ``floor_shift <= 0 <= ceiling_shift`` (monotone). ``edge`` None: plain
-    Platt scaling (:func:`~po3d_ppl.evaluation.objects.fit_platt`, which also checks that both outcomes occur)."""
-    a, b = fit_platt(x, y, unit=1.0, what="projection calibration")
+    Platt scaling (:func:`~po3d_ppl.evaluation.objects.fit_platt`). Both outcomes must occur."""
     if edge is None:
-        return a, b, 0.0, 0.0
+        return (*fit_platt(x, y, unit=1.0, what="projection calibration"), 0.0, 0.0)
+    require_both_outcomes(y, "projection calibration")
     # start at a = 1, b = 0, shifts -+0.69 rather than at the plain fit: both reach the optimum, but LBFGS stops at
     # slightly different points along flat directions (seed 712's occluder ceiling shift: 0.011 against 0.035), and
     # this start reproduces the shipped file byte for byte
