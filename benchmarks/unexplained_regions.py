@@ -3,8 +3,11 @@
 Each image of ``--data`` is parsed with the shipped models (:class:`~po3d_ppl.perception.scene_parser.ImageParser`).
 The *unexplained* pixels are the background model's foreground that the most likely scene (each proposal's aligned
 subtype silhouette, ``ParsedScene.object_ids``) leaves uncovered, opened by a 5x5 square; its connected regions of
-at least ``--min-area`` pixels are candidates for a second search. Subtype silhouettes are tight, unlike the
-enclosing category meshes the object parser scores with, so an object behind a proposal's overshoot shows here.
+at least ``--min-area`` pixels (:func:`~po3d_ppl.perception.object_parser.unexplained_regions`) are what the
+parser's second search reads (``add_region_proposals``), and what this counts is left after it;
+``--no-second-search`` counts them after the first reading (how the table in docs/perception.md was measured).
+Subtype silhouettes are tight, unlike the enclosing category meshes the object parser scores with, so an object
+behind a proposal's overshoot shows here.
 
 Ground truth is read for scoring only. Per missed object (>= 200 visible pixels, no proposal at box IoU >= 0.5):
 how many of its visible pixels lie in a region. Per region: whether most of it lies on a missed object, on a found
@@ -18,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 from collections import Counter
+from dataclasses import replace
 from pathlib import Path
 
 
@@ -29,6 +33,8 @@ def main() -> None:
     parser.add_argument("--min-area", type=int, default=200, help="smallest region kept (pixels)")
     parser.add_argument("--regions", action="store_true", help="print every region's cues")
     parser.add_argument("--threads", type=int, default=1)
+    parser.add_argument("--no-second-search", action="store_true",
+                        help="parse without the second search (ParserConfig.region_min_score=None)")
     args = parser.parse_args()
 
     import cv2
@@ -38,14 +44,16 @@ def main() -> None:
 
     from po3d_ppl.evaluation.objects import match_boxes
     from po3d_ppl.perception.image_input import load_image
-    from po3d_ppl.perception.object_parser import _chroma, _default_background, _rgb8
+    from po3d_ppl.perception.object_parser import ParserConfig, _chroma, _default_background, _rgb8, unexplained_regions
     from po3d_ppl.perception.scene_parser import ImageParser
     from po3d_ppl.questions.dataset import load_dataset
     from po3d_ppl.world import rle
 
     torch.set_num_threads(args.threads)
     dataset = load_dataset(args.data)
-    image_parser, background = ImageParser.load(), _default_background()
+    search_config = ParserConfig(region_min_score=None) if args.no_second_search else ParserConfig()
+    region_config = replace(search_config, region_min_pixels=args.min_area)
+    image_parser, background = replace(ImageParser.load(), parser_config=search_config), _default_background()
     if background is None:
         raise SystemExit("no background model is shipped: the foreground is unknown")
     indices = dataset.split_indices(args.split)[: args.limit]
@@ -57,16 +65,13 @@ def main() -> None:
         foreground = background.foreground(_rgb8(image))
         chroma = _chroma(image).numpy()
         seen = parsed.object_ids if parsed.object_ids is not None else np.full(foreground.shape, -1)
-        unexplained = cv2.morphologyEx((foreground & (seen < 0)).astype(np.uint8), cv2.MORPH_OPEN,
-                                       np.ones((5, 5), np.uint8))
-        count, labels, stats, _ = cv2.connectedComponentsWithStats(unexplained, connectivity=8)
-        regions = [c for c in range(1, count) if stats[c, cv2.CC_STAT_AREA] >= args.min_area]
+        regions = unexplained_regions(foreground, seen, region_config)
         objects = scene.objects
         boxes = np.array([o.annotation.bbox for o in objects], dtype=np.float64).reshape(-1, 4)
         found = {j for _, j in match_boxes(parsed.evidence.boxes.numpy(), boxes, 0.5)}
         height, width = foreground.shape
         masks = [rle.decode(o.annotation.visible_mask, height, width).astype(bool) for o in objects]
-        in_region = np.isin(labels, regions)
+        in_region = np.any(regions, axis=0) if regions else np.zeros_like(foreground)
         for j, o in enumerate(objects):
             if o.annotation.visible_pixels < 200 or j in found:
                 continue
@@ -75,8 +80,7 @@ def main() -> None:
             tally["missed, >= 200 px in a region"] += shown >= 200
             tally["missed, >= half in a region"] += shown >= 0.5 * o.annotation.visible_pixels
         bodies = {p: np.median(chroma[seen == p], 0) for p in np.unique(seen[seen >= 0]) if (seen == p).sum() > 30}
-        for c in regions:
-            region = labels == c
+        for region in regions:
             area = int(region.sum())
             overlap, owner = max(((int((m & region).sum()), j) for j, m in enumerate(masks)), default=(0, -1))
             kind = "none" if overlap < 0.5 * area else ("missed" if owner not in found else "found")

@@ -301,3 +301,54 @@ def test_pixels_two_meshes_cover_go_to_the_one_whose_colour_they_show():
     strict = ParserConfig(mask_stride=2, colour_margin=1000.0)  # no colour is that much nearer
     unchanged = _recolour(ownership, coverage, chroma, strict)
     assert torch.equal(unchanged, ownership)
+
+
+@pytest.fixture(scope="module")
+def three_apart():
+    """Three objects well apart (base camera), and the object parser's search of the image."""
+    from dataclasses import replace
+
+    from po3d_ppl.perception.image_input import CameraPrior
+    from po3d_ppl.perception.object_parser import search_objects
+    from po3d_ppl.world.generate import render_layout
+    from po3d_ppl.world.sampler import ObjectSpec
+
+    specs = [ObjectSpec("school", "yellow", "rubber", "large", 30.0, -1.6, 0.8),
+             ObjectSpec("sedan", "red", "metal", "large", 100.0, 1.4, -1.0),
+             ObjectSpec("chopper", "blue", "metal", "large", 200.0, 1.2, 1.8)]
+    rendered = render_layout(specs, CameraPrior(640, 480).base)
+    search = search_objects(rendered.image, config=replace(ParserConfig(), region_min_score=30.0))
+    return rendered, search
+
+
+def test_a_missed_object_is_found_again_in_the_foreground_nothing_explains(three_apart):
+    """The second search (add_region_proposals): with one located proposal taken out (a first reading that missed
+    its object), the foreground it leaves unexplained raises a proposal there again; with every proposal in, or the
+    second search off, nothing is added."""
+    from dataclasses import replace
+
+    from po3d_ppl.errors import InputError
+    from po3d_ppl.perception.object_parser import add_region_proposals, record_objects
+
+    rendered, search = three_apart
+    assert len(search.located) == 3
+    full = record_objects(search).ownership.numpy()
+    assert add_region_proposals(search, full) is None  # everything is explained
+    for k in range(3):
+        kept = [i for i in range(3) if i != k]
+        missed = replace(search, located=[search.located[i] for i in kept],
+                         proposal_scores=[search.proposal_scores[i] for i in kept],
+                         tables=[search.tables[i] for i in kept])
+        explained = np.where(full == k, -1, full)
+        grown = add_region_proposals(missed, explained)
+        assert grown is not None and grown.from_regions == 1, k
+        again = grown.located[-1]
+        lost = search.located[k]
+        assert np.hypot(again.x - lost.x, again.y - lost.y) < 0.5, k
+        assert again.category == lost.category, k
+        record = record_objects(grown)
+        assert len(record) == 3 and record.existence_logodds.shape == (3,)
+        assert add_region_proposals(replace(missed, config=replace(ParserConfig(), region_min_score=None)),
+                                    explained) is None
+    with pytest.raises(InputError, match="explained"):
+        add_region_proposals(search, full[:10])

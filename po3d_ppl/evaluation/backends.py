@@ -103,8 +103,9 @@ class SimulatedBackend:
 #: version is then never read). 2: part style tables as likelihoods (the log 16 of ``AttributeNet.style_loglik``).
 #: 3: the object parser merges fragments of one object (``ParserConfig.merge_penalty``). 4: contested cells and
 #: occluded objects added (``ParserConfig.contest_margin``). 5: masks split between touching proposals by colour
-#: (``ParserConfig.colour_margin``).
-EVIDENCE_VERSION = 5
+#: (``ParserConfig.colour_margin``). 6: a second search on the foreground the first reading leaves unexplained
+#: (``ParserConfig.region_min_score``).
+EVIDENCE_VERSION = 6
 
 
 @dataclass(frozen=True)

@@ -41,7 +41,7 @@ from po3d_ppl.errors import InputError
 from po3d_ppl.evidence import DTYPE, NUM_STYLES, P, S, SceneEvidence, ScenePriors
 from po3d_ppl.perception.alignment import AlignmentConfig, align_silhouette
 from po3d_ppl.perception.image_input import ImageInput, load_image, project_points
-from po3d_ppl.perception.object_parser import parse_objects, yaw_of
+from po3d_ppl.perception.object_parser import add_region_proposals, record_objects, search_objects, yaw_of
 from po3d_ppl.perception.occlusion import GradedOcclusion, ShiftGrid, graded_occlusion
 from po3d_ppl.perception.simulated import VISIBLE_PART_PIXELS
 from po3d_ppl.world.scene import Camera
@@ -216,11 +216,30 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
     (:mod:`po3d_ppl.perception.projection_calibration`). ``object_model``, ``object_calibration`` and
     ``background`` go to :func:`~po3d_ppl.perception.object_parser.parse_objects` (default: the shipped ones)."""
     config = config or SceneParserConfig()
-    timings: dict[str, float] = {}
     start = time.perf_counter()
     img: ImageInput = load_image(image)
-    proposals = parse_objects(img, object_model, parser_config, object_calibration, background)
-    timings.update({f"objects.{k}": v for k, v in proposals.timings.items()})
+    search = search_objects(img, object_model, parser_config, object_calibration, background)
+    parsed = _read_scene(img, record_objects(search), attributes, viewpoint, projection_calibration, config)
+    # second search: foreground the most likely scene leaves unexplained (object_parser.add_region_proposals)
+    explained = parsed.object_ids if parsed.object_ids is not None else np.full(img.size[::-1], -1)
+    t0 = time.perf_counter()
+    grown = add_region_proposals(search, explained)
+    if grown is not None:
+        first = parsed.timings
+        parsed = _read_scene(img, record_objects(grown), attributes, viewpoint, projection_calibration, config)
+        parsed.timings.update({f"first_reading.{k}": v for k, v in first.items()})
+        parsed.timings["objects.regions"] = time.perf_counter() - t0
+        parsed.notes += (f"{grown.from_regions} proposal(s) from foreground the first reading left unexplained "
+                         "(existence from their score there; pose not refined)",)
+    parsed.timings["total"] = time.perf_counter() - start
+    return parsed
+
+
+def _read_scene(img: ImageInput, proposals, attributes: AttributeNet | None, viewpoint: ViewpointNet | None,
+                projection_calibration: ProjectionCalibration | None, config: SceneParserConfig) -> ParsedScene:
+    """Every table of the evidence from the object parser's proposals: attributes, viewpoint, camera height,
+    alignment, silhouette subtypes, and parts and occlusion by projection."""
+    timings: dict[str, float] = {f"objects.{k}": v for k, v in proposals.timings.items()}
     n = len(proposals)
     camera = proposals.camera
     notes = list(proposals.notes)
@@ -287,7 +306,6 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
         evidence = projection_calibration.apply(evidence)
     elif n:
         notes.append("projected tables uncalibrated (their probability floor is 0.05)")
-    timings["total"] = time.perf_counter() - start
     object_ids, part_ids = best_view if best_view is not None else (None, None)
     return ParsedScene(evidence, proposals, projections, timings, tuple(notes), object_ids, part_ids)
 
@@ -546,6 +564,8 @@ class ImageParser:
     projection_calibration: ProjectionCalibration | None = None
     object_calibration: object = None
     background: object = None
+    #: the object parser's settings (None: ``ParserConfig()``)
+    parser_config: object = None
     name = "render-and-compare"
 
     @classmethod
@@ -586,8 +606,8 @@ class ImageParser:
     def parse(self, image) -> ParsedScene:
         return parse_scene(image, object_model=self.object_model, attributes=self.attributes,
                            viewpoint=self.viewpoint, projection_calibration=self.projection_calibration,
-                           config=self.config, object_calibration=self.object_calibration,
-                           background=self.background)
+                           config=self.config, parser_config=self.parser_config,
+                           object_calibration=self.object_calibration, background=self.background)
 
     def evidence(self, image) -> SceneEvidence:
         return self.parse(image).evidence
