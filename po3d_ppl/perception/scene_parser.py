@@ -219,14 +219,14 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
     start = time.perf_counter()
     img: ImageInput = load_image(image)
     search = search_objects(img, object_model, parser_config, object_calibration, background)
-    parsed = _read_scene(img, record_objects(search), attributes, viewpoint, projection_calibration, config)
+    parsed = read_scene(img, record_objects(search), attributes, viewpoint, projection_calibration, config)
     # second search: foreground the most likely scene leaves unexplained (object_parser.add_region_proposals)
     explained = parsed.object_ids if parsed.object_ids is not None else np.full(img.size[::-1], -1)
     t0 = time.perf_counter()
     grown = add_region_proposals(search, explained)
     if grown is not None:
         first = parsed.timings
-        parsed = _read_scene(img, record_objects(grown), attributes, viewpoint, projection_calibration, config)
+        parsed = read_scene(img, record_objects(grown), attributes, viewpoint, projection_calibration, config)
         parsed.timings.update({f"first_reading.{k}": v for k, v in first.items()})
         parsed.timings["objects.regions"] = time.perf_counter() - t0
         parsed.notes += (f"{grown.from_regions} proposal(s) from foreground the first reading left unexplained "
@@ -235,7 +235,7 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
     return parsed
 
 
-def _read_scene(img: ImageInput, proposals, attributes: AttributeNet | None, viewpoint: ViewpointNet | None,
+def read_scene(img: ImageInput, proposals, attributes: AttributeNet | None, viewpoint: ViewpointNet | None,
                 projection_calibration: ProjectionCalibration | None, config: SceneParserConfig) -> ParsedScene:
     """Every table of the evidence from the object parser's proposals: attributes, viewpoint, camera height,
     alignment, silhouette subtypes, and parts and occlusion by projection."""
