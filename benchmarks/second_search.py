@@ -13,7 +13,28 @@ first reading missed, to one it had, or to none).
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 from pathlib import Path
+
+
+def parser_config(settings: list[str]):
+    """``ParserConfig`` with ``FIELD=VALUE`` overrides (``none`` for None; a bool field takes true/false)."""
+    from po3d_ppl.perception.object_parser import ParserConfig
+
+    default = ParserConfig()
+    overrides = {}
+    for item in settings:
+        name, _, text = item.partition("=")
+        if name not in ParserConfig.__dataclass_fields__:
+            raise SystemExit(f"unknown ParserConfig field {name!r}")
+        current = getattr(default, name)
+        if text.lower() == "none":
+            overrides[name] = None
+        elif isinstance(current, bool):
+            overrides[name] = text.lower() in ("1", "true", "yes")
+        else:
+            overrides[name] = float(text) if current is None else type(current)(text)
+    return replace(default, **overrides)
 
 
 def main() -> None:
@@ -22,6 +43,8 @@ def main() -> None:
     parser.add_argument("--split", default="all")
     parser.add_argument("--limit", type=int, default=None, help="only the first N images")
     parser.add_argument("--threads", type=int, default=1)
+    parser.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
+                        help="override a ParserConfig field (repeatable), e.g. --set region_min_score=50")
     args = parser.parse_args()
 
     import numpy as np
@@ -35,7 +58,7 @@ def main() -> None:
 
     torch.set_num_threads(args.threads)
     dataset = load_dataset(args.data)
-    reader = ImageParser.load()
+    reader = replace(ImageParser.load(), parser_config=parser_config(args.set))
     first, second = [], []
     added = {"a missed object": 0, "an object found already": 0, "no object": 0}
     for index in track(dataset.split_indices(args.split)[: args.limit], description="parsing"):
