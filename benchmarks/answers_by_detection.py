@@ -11,17 +11,13 @@ the evidence of the objects that were found. Ground truth is read here for scori
 
 from __future__ import annotations
 
-import argparse
 from collections import defaultdict
-from pathlib import Path
+
+from dataset_args import dataset_parser
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, required=True, help="dataset directory from `po3d dataset build`")
-    parser.add_argument("--split", default="all")
-    parser.add_argument("--limit", type=int, default=None, help="only the first N images")
-    parser.add_argument("--threads", type=int, default=1)
+    parser = dataset_parser(__doc__)
     args = parser.parse_args()
 
     import numpy as np

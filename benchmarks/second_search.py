@@ -12,9 +12,9 @@ first reading missed, to one it had, or to none).
 
 from __future__ import annotations
 
-import argparse
 from dataclasses import replace
-from pathlib import Path
+
+from dataset_args import dataset_parser
 
 
 def parser_config(settings: list[str]):
@@ -38,11 +38,7 @@ def parser_config(settings: list[str]):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, required=True, help="dataset directory from `po3d dataset build`")
-    parser.add_argument("--split", default="all")
-    parser.add_argument("--limit", type=int, default=None, help="only the first N images")
-    parser.add_argument("--threads", type=int, default=1)
+    parser = dataset_parser(__doc__)
     parser.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
                         help="override a ParserConfig field (repeatable), e.g. --set region_min_score=50")
     args = parser.parse_args()

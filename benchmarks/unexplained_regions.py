@@ -19,20 +19,16 @@ the cues a rule could use (the regions' median chroma against that of the propos
 
 from __future__ import annotations
 
-import argparse
 from collections import Counter
 from dataclasses import replace
-from pathlib import Path
+
+from dataset_args import dataset_parser
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, required=True, help="dataset directory from `po3d dataset build`")
-    parser.add_argument("--split", default="all")
-    parser.add_argument("--limit", type=int, default=None, help="only the first N images")
+    parser = dataset_parser(__doc__)
     parser.add_argument("--min-area", type=int, default=200, help="smallest region kept (pixels)")
     parser.add_argument("--regions", action="store_true", help="print every region's cues")
-    parser.add_argument("--threads", type=int, default=1)
     parser.add_argument("--no-second-search", action="store_true",
                         help="parse without the second search (ParserConfig.region_min_score=None)")
     args = parser.parse_args()
