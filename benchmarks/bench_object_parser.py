@@ -16,6 +16,7 @@ import time
 
 import numpy as np
 import torch
+from dataset_args import parser_overrides
 
 
 def main() -> None:
@@ -36,18 +37,7 @@ def main() -> None:
     from po3d_ppl.evaluation.objects import load_outcomes, parse_dataset, save_outcomes, score_image, summarise
     from po3d_ppl.perception.object_parser import ParserConfig, parse_objects
 
-    fields = ParserConfig.__dataclass_fields__
-    def value(field: str, text: str):
-        """``none`` for None; a field whose default is None takes a float."""
-        default = getattr(ParserConfig(), field, None)
-        if text.lower() == "none":
-            return None
-        return float(text) if default is None else type(default)(text)
-
-    overrides = {k: value(k, v) for k, v in (kv.split("=", 1) for kv in args.set)}
-    unknown = sorted(set(overrides) - set(fields))
-    if unknown:
-        raise SystemExit(f"unknown ParserConfig fields {unknown}")
+    overrides = parser_overrides(args.set)
     config = ParserConfig(**overrides)
 
     def parse(image):

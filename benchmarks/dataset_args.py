@@ -1,4 +1,5 @@
-"""The command line the dataset benchmarks share: ``--data DIR [--split S] [--limit N] [--threads T]``."""
+"""The command line the dataset benchmarks share: ``--data DIR [--split S] [--limit N] [--threads T]``, and the
+object parser's ``--set FIELD=VALUE`` overrides."""
 
 from __future__ import annotations
 
@@ -14,3 +15,24 @@ def dataset_parser(doc: str) -> argparse.ArgumentParser:
     parser.add_argument("--limit", type=int, default=None, help="only the first N images")
     parser.add_argument("--threads", type=int, default=1)
     return parser
+
+
+def parser_overrides(settings: list[str]) -> dict:
+    """``ParserConfig`` fields from ``FIELD=VALUE`` items: ``none`` gives None, a bool field reads true/false (or
+    1/0, yes/no), a field whose default is None a float, any other its default's type."""
+    from po3d_ppl.perception.object_parser import ParserConfig
+
+    default = ParserConfig()
+    overrides = {}
+    for item in settings:
+        name, _, text = item.partition("=")
+        if name not in ParserConfig.__dataclass_fields__:
+            raise SystemExit(f"unknown ParserConfig field {name!r}")
+        current = getattr(default, name)
+        if text.lower() == "none":
+            overrides[name] = None
+        elif isinstance(current, bool):
+            overrides[name] = text.lower() in ("1", "true", "yes")
+        else:
+            overrides[name] = float(text) if current is None else type(current)(text)
+    return overrides

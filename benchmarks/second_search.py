@@ -14,27 +14,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from dataset_args import dataset_parser
-
-
-def parser_config(settings: list[str]):
-    """``ParserConfig`` with ``FIELD=VALUE`` overrides (``none`` for None; a bool field takes true/false)."""
-    from po3d_ppl.perception.object_parser import ParserConfig
-
-    default = ParserConfig()
-    overrides = {}
-    for item in settings:
-        name, _, text = item.partition("=")
-        if name not in ParserConfig.__dataclass_fields__:
-            raise SystemExit(f"unknown ParserConfig field {name!r}")
-        current = getattr(default, name)
-        if text.lower() == "none":
-            overrides[name] = None
-        elif isinstance(current, bool):
-            overrides[name] = text.lower() in ("1", "true", "yes")
-        else:
-            overrides[name] = float(text) if current is None else type(current)(text)
-    return replace(default, **overrides)
+from dataset_args import dataset_parser, parser_overrides
 
 
 def main() -> None:
@@ -48,13 +28,18 @@ def main() -> None:
     from rich.progress import track
 
     from po3d_ppl.evaluation.objects import match_boxes, score_image, summarise
-    from po3d_ppl.perception.object_parser import add_region_proposals, record_objects, search_objects
+    from po3d_ppl.perception.object_parser import (
+        ParserConfig,
+        add_region_proposals,
+        record_objects,
+        search_objects,
+    )
     from po3d_ppl.perception.scene_parser import ImageParser, read_scene
     from po3d_ppl.questions.dataset import load_dataset
 
     torch.set_num_threads(args.threads)
     dataset = load_dataset(args.data)
-    reader = replace(ImageParser.load(), parser_config=parser_config(args.set))
+    reader = replace(ImageParser.load(), parser_config=ParserConfig(**parser_overrides(args.set)))
     first, second = [], []
     added = {"a missed object": 0, "an object found already": 0, "no object": 0}
     for index in track(dataset.split_indices(args.split)[: args.limit], description="parsing"):
@@ -64,8 +49,7 @@ def main() -> None:
         before = record_objects(search)
         parsed = read_scene(search.image, before, reader.attributes, reader.viewpoint,
                             reader.projection_calibration, reader.config)
-        explained = parsed.object_ids if parsed.object_ids is not None else np.full(search.image.size[::-1], -1)
-        grown = add_region_proposals(search, explained)
+        grown = add_region_proposals(search, parsed.object_ids)
         after = record_objects(grown) if grown is not None else before
         first.append(score_image(before, scene, str(index), 0.0))
         second.append(score_image(after, scene, str(index), 0.0))

@@ -858,10 +858,13 @@ def estimate_camera(hyps: list[Hypothesis], evidence: list[torch.Tensor], featur
 
 
 def relocate(hyps: list[Hypothesis], evidence: list[torch.Tensor], feature_size: tuple[int, int],
-             templates: Templates, camera: Camera, found_with: Camera, config: ParserConfig
-             ) -> tuple[list[Hypothesis], list[tuple[torch.Tensor, torch.Tensor, torch.Tensor] | None]]:
+             templates: Templates, camera: Camera, found_with: Camera, config: ParserConfig,
+             coarse: torch.Tensor, coarse_grid: Grid
+             ) -> tuple[list[Hypothesis], list[tuple[torch.Tensor, torch.Tensor, torch.Tensor]]]:
     """Under ``camera``: each proposal's best local hypothesis (finer positions than the coarse grid) and its
-    tables (category [5], pose [5, A], size [2]): log-sum-exps over positions within ``table_radius`` of it."""
+    tables (category [5], pose [5, A], size [2]): log-sum-exps over positions within ``table_radius`` of it. A
+    proposal with no local position in the search extent keeps its pose and takes its tables from the coarse
+    search's scores ``coarse`` over ``coarse_grid`` (:func:`_tables`)."""
     if not hyps:
         return [], []
     pix, owner = _local_pixels(hyps, found_with, config)
@@ -873,7 +876,7 @@ def relocate(hyps: list[Hypothesis], evidence: list[torch.Tensor], feature_size:
         idx = torch.nonzero(owner == i).reshape(-1)
         if idx.numel() == 0:
             out.append(h)
-            tables.append(None)
+            tables.append(_tables(coarse, coarse_grid, h, config))
             continue
         local = scores[idx]
         flat = int(local.flatten().argmax())
@@ -1107,6 +1110,7 @@ class ObjectSearch:
     found_with: Camera
     camera: Camera
     pool: list[Hypothesis]
+    #: the pool's :func:`cell_scores` (None when there is no peak)
     pool_maps: CellMaps | None
     located: list[Hypothesis]
     proposal_scores: list[float]
@@ -1163,9 +1167,7 @@ def search_objects(image, model: FeatureModel | None = None, config: ParserConfi
     timings["nms"] = t3 - t2
     found = camera
     camera = estimate_camera(accepted, evidence, size_hw, templates, prior, config)
-    located, local_tables = relocate(accepted, evidence, size_hw, templates, camera, found, config)
-    tables = [t if t is not None else _tables(scores, grid, h, config)
-              for t, h in zip(local_tables, accepted)]
+    located, tables = relocate(accepted, evidence, size_hw, templates, camera, found, config, scores, grid)
     t4 = time.perf_counter()
     timings["camera+relocate"] = t4 - t3
     located = keep_apart(refine(located, features, clutter, meshes, camera, config), accepted, config)
@@ -1196,17 +1198,20 @@ def record_objects(search: ObjectSearch) -> ObjectProposals:
 # --- a second search: foreground the first reading leaves unexplained ----------------------------------------------
 
 
-def unexplained_regions(foreground: np.ndarray, explained: np.ndarray, config: ParserConfig) -> list[np.ndarray]:
+def unexplained_regions(foreground: np.ndarray, explained: np.ndarray | None, config: ParserConfig
+                        ) -> list[np.ndarray]:
     """[H, W] bool masks of the foreground no proposal explains (``explained`` [H, W]: the proposal seen per pixel,
-    -1 none), opened with a ``region_open_px`` square (thin slivers along outlines go) and split into connected
-    regions of at least ``region_min_pixels``."""
+    -1 none; None: no proposal), opened with a ``region_open_px`` square (thin slivers along outlines go) and split
+    into connected regions of at least ``region_min_pixels``, largest first."""
     import cv2
 
     open_px = config.region_open_px
-    loose = (foreground & (explained < 0)).astype(np.uint8)
+    loose = (foreground if explained is None else foreground & (explained < 0)).astype(np.uint8)
     opened = cv2.morphologyEx(loose, cv2.MORPH_OPEN, np.ones((open_px, open_px), np.uint8)) if open_px > 1 else loose
     count, labels, stats, _ = cv2.connectedComponentsWithStats(opened, connectivity=8)
-    return [labels == c for c in range(1, count) if stats[c, cv2.CC_STAT_AREA] >= config.region_min_pixels]
+    areas = stats[:, cv2.CC_STAT_AREA]
+    kept = [c for c in range(1, count) if areas[c] >= config.region_min_pixels]
+    return [labels == c for c in sorted(kept, key=lambda c: -int(areas[c]))]
 
 
 def _region_cells(region: np.ndarray, feature_size: tuple[int, int], share: float) -> torch.Tensor:
@@ -1219,7 +1224,7 @@ def _region_cells(region: np.ndarray, feature_size: tuple[int, int], share: floa
     return cells
 
 
-def add_region_proposals(search: ObjectSearch, explained: np.ndarray) -> ObjectSearch | None:
+def add_region_proposals(search: ObjectSearch, explained: np.ndarray | None) -> ObjectSearch | None:
     """A second search confined to the foreground the first reading leaves unexplained; None if it adds nothing.
 
     The 3D-NMS misses objects mostly behind others (recall 0.34 at >= 20% occlusion on seed 720), yet most of them
@@ -1234,18 +1239,18 @@ def add_region_proposals(search: ObjectSearch, explained: np.ndarray) -> ObjectS
     footprint meets none added 4 objects and 5 false proposals on the first 60 images of seed 712, against 3 and 1.
     A proposal is then re-searched locally like the others (its tables; the move is undone if its footprint then
     meets another's) but not refined; its existence score is its region score. ``explained``: the scene
-    parser's most likely scene (``ParsedScene.object_ids``)."""
+    parser's most likely scene (``ParsedScene.object_ids``; None when it has no proposal)."""
     config = search.config
-    if config.region_min_score is None or search.foreground is None or not search.pool or search.pool_maps is None:
+    if config.region_min_score is None or search.foreground is None or not search.pool:
         return None
-    if explained.shape != search.foreground.shape:
+    if explained is not None and explained.shape != search.foreground.shape:
         raise InputError("explained", f"must be the image's [H, W] {search.foreground.shape}, got {explained.shape}")
     pool_fg, pool_mask, _ = search.pool_maps
     size = (int(pool_mask.shape[1]), int(pool_mask.shape[2]))
     picked: list[Hypothesis] = []
     region_scores: list[float] = []
     covered = torch.zeros(size, dtype=torch.bool)  # the cells the picked peaks' meshes cover
-    for region in sorted(unexplained_regions(search.foreground, explained, config), key=lambda r: -int(r.sum())):
+    for region in unexplained_regions(search.foreground, explained, config):
         cells = _region_cells(region, size, config.region_cell_share)
         if not bool(cells.any()) or float((cells & covered).sum()) >= config.region_min_cover * float(cells.sum()):
             continue  # nothing to read, or a larger region's proposal explains it already
@@ -1263,15 +1268,13 @@ def add_region_proposals(search: ObjectSearch, explained: np.ndarray) -> ObjectS
         region_scores.append(float(score[best]))
     if not picked:
         return None
-    moved, local_tables = relocate(picked, search.evidence, search.feature_size, search.templates, search.camera,
-                                   search.found_with, config)
+    moved, tables = relocate(picked, search.evidence, search.feature_size, search.templates, search.camera,
+                             search.found_with, config, search.scores, search.grid)
     kept = list(search.located)
     for i, hyp in enumerate(moved):
-        if any(footprints_overlap(hyp, other, config.footprint_shrink) for other in kept):
-            moved[i], local_tables[i] = picked[i], None
+        if any(footprints_overlap(hyp, other, config.footprint_shrink) for other in kept):  # undo the move
+            moved[i], tables[i] = picked[i], _tables(search.scores, search.grid, picked[i], config)
         kept.append(moved[i])
-    tables = [t if t is not None else _tables(search.scores, search.grid, h, config)
-              for t, h in zip(local_tables, picked)]
     return replace(search, located=kept, proposal_scores=search.proposal_scores + region_scores,
                    tables=search.tables + tables, from_regions=search.from_regions + len(picked))
 

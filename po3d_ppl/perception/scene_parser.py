@@ -213,17 +213,19 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
     pixels. An image without vehicles gives empty evidence (N = 0), which reasoning answers (count 0, ...).
     ``viewpoint`` (optional) sharpens the pose table with a whole-object azimuth reading before the parts are
     projected (:mod:`po3d_ppl.perception.viewpoint`); ``projection_calibration`` rescales the projected tables
-    (:mod:`po3d_ppl.perception.projection_calibration`). ``object_model``, ``object_calibration`` and
-    ``background`` go to :func:`~po3d_ppl.perception.object_parser.parse_objects` (default: the shipped ones)."""
+    (:mod:`po3d_ppl.perception.projection_calibration`). ``object_model``, ``parser_config``,
+    ``object_calibration`` and ``background`` go to the object parser (default: the shipped ones). The scene is
+    read once from the object parser's proposals (:func:`read_scene`) and, where that reading leaves foreground
+    unexplained and a second search adds proposals there
+    (:func:`~po3d_ppl.perception.object_parser.add_region_proposals`), once more with them."""
     config = config or SceneParserConfig()
     start = time.perf_counter()
     img: ImageInput = load_image(image)
     search = search_objects(img, object_model, parser_config, object_calibration, background)
     parsed = read_scene(img, record_objects(search), attributes, viewpoint, projection_calibration, config)
     # second search: foreground the most likely scene leaves unexplained (object_parser.add_region_proposals)
-    explained = parsed.object_ids if parsed.object_ids is not None else np.full(img.size[::-1], -1)
     t0 = time.perf_counter()
-    grown = add_region_proposals(search, explained)
+    grown = add_region_proposals(search, parsed.object_ids)
     if grown is not None:
         first = parsed.timings
         parsed = read_scene(img, record_objects(grown), attributes, viewpoint, projection_calibration, config)
