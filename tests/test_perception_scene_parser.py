@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import torch
 
+from po3d_ppl import ontology
 from po3d_ppl.errors import ModelFileError
 from po3d_ppl.evidence import SceneEvidence
 from po3d_ppl.perception.calibration import TableCalibration, load_calibration
@@ -133,3 +134,43 @@ def test_silhouette_term_prefers_the_rendered_subtype():
         assert float(terms[SUBTYPES.index(subtype)]) > 0.9 * config.silhouette_weight
         others = [s for s in range(len(SUBTYPES)) if s not in cars]
         assert torch.all(terms[others] == terms[cars].min())
+
+
+class _FixedLooks:
+    """An attribute network whose part-style table is given per pose hypothesis."""
+
+    def __init__(self, tables):
+        self.tables = tables
+
+    def part_style_tables(self, img, masks, part_maps, min_pixels=1):
+        return self.tables[:len(part_maps)]
+
+
+def test_part_looks_are_read_under_the_kept_pose_hypotheses():
+    """A less likely pose reads the part's pixels of another (plain) part: mixed in at its weight it drags a clear
+    recoloured reading to even odds; reading the most likely pose only keeps it."""
+    from po3d_ppl.evidence import NUM_STYLES
+    from po3d_ppl.perception.scene_parser import _mixed_styles
+
+    n, s_count, p_count = 1, len(ontology.SUBTYPES), max(len(v) for v in ontology.PARTS.values())
+    recoloured = torch.full((n, s_count, p_count, NUM_STYLES), -9.0, dtype=torch.float64)
+    recoloured[..., 5] = 0.0  # one look, sure
+    plain = torch.full_like(recoloured, -9.0)
+    plain[..., 0] = 0.0
+    looks = _FixedLooks([recoloured.log_softmax(-1), plain.log_softmax(-1)])
+    maps = [{(0, 0): torch.zeros(4, 4, dtype=torch.long)}, {(0, 0): torch.zeros(4, 4, dtype=torch.long)}]
+    weights = torch.zeros(2, n, s_count, dtype=torch.float64)
+    weights[:, 0, 0] = torch.tensor([0.86, 0.14])
+    masks = torch.ones(n, 4, 4, dtype=torch.bool)
+    mixed = _mixed_styles(looks, None, masks, maps, weights).exp()[0, 0, 0]
+    top = _mixed_styles(looks, None, masks, maps, weights, kept=1).exp()[0, 0, 0]
+    assert mixed[0] == pytest.approx(0.14, abs=5e-3) and mixed[5] == pytest.approx(0.86, abs=5e-3)
+    assert top[5] > 0.99
+    unshown = _mixed_styles(looks, None, masks, maps, weights, kept=1)[0, 1]
+    assert torch.equal(unshown, torch.zeros_like(unshown))  # a hypothesis without weight reads nothing
+
+
+def test_style_pose_hypotheses_is_checked():
+    with pytest.raises(Exception, match="style_pose_hypotheses"):
+        SceneParserConfig(style_pose_hypotheses=0)
+    assert SceneParserConfig(style_pose_hypotheses=None).style_pose_hypotheses is None

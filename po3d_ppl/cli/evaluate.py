@@ -1,4 +1,5 @@
-"""``po3d eval vqa`` and ``po3d eval calibration``: accuracy against the baselines, difficulty and calibration.
+"""``po3d eval vqa``, ``po3d eval calibration`` and ``po3d eval ceilings``: accuracy against the baselines,
+difficulty, calibration, and which evidence table limits the answers.
 
 Evidence comes from the simulated sensor (``--perception simulated``) or from perception on the images
 (``--perception image``, the shipped models); either is cached per image under ``--cache``.
@@ -268,7 +269,59 @@ def train_answer_calibration_command(
                   "it on another seed)", markup=False, highlight=False)
 
 
+def ceilings_command(
+    data: Path = _DATA, split: str = _SPLIT, limit: int = _LIMIT,
+    oracles: str = typer.Option(None, "--oracles", help="Comma-separated oracles (default: every registered one: "
+                                "existence, subtype, attributes, pose, occlusion, part_visibility, part_style, "
+                                "part_occlusion)."),
+    files: str = typer.Option(None, "--files", help="Comma-separated question files (default: all; each variant "
+                              "answers every question again, about 0.1 s each)."),
+    json_out: Path = typer.Option(None, "--json", help="Write the accuracies per variant, file and column."),
+    md_out: Path = typer.Option(None, "--md", help="Write the Markdown table."),
+    figure: Path = typer.Option(None, "--figure", help="Write the bar chart of each oracle's gain (PNG)."),
+    cache: Path = _CACHE, threads: int = _THREADS,
+    perception: str = typer.Option("image", "--perception", help="Evidence back-end: image (default: the shipped "
+                                   "parser, cached) or simulated (--noise, --seed)."),
+    noise: float = _NOISE, seed: int = _SEED, priors: str = _PRIORS,
+) -> None:
+    """Which evidence table limits the answers: ``ours`` with each table replaced by the truth on the matched
+    proposals (an analysis that reads the scenes, like the oracle column), against perception as it is."""
+    import torch
+    from rich.console import Console
+
+    from po3d_ppl.evaluation.cache import EvidenceCache
+    from po3d_ppl.evaluation.ceilings import evaluate_ceilings
+    from po3d_ppl.evaluation.plots import ceiling_plot
+    from po3d_ppl.evaluation.report import write_text
+    from po3d_ppl.questions.dataset import load_dataset
+
+    torch.set_num_threads(threads)
+    console = Console()
+    dataset = load_dataset(data)
+    backend = make_backend(perception, noise, seed)
+    store = EvidenceCache(cache if cache is not None else Path(data) / "eval_cache")
+    chosen = None if oracles is None else [name.strip() for name in oracles.split(",") if name.strip()]
+    with _progress(console, "eval ceilings") as bar:
+        task = bar.add_task("ceilings", total=None)
+        report = evaluate_ceilings(dataset, split, backend, cache=store, limit=limit, oracles=chosen,
+                                   files=None if files is None else [f.strip() for f in files.split(",") if f.strip()],
+                                   priors=resolve_priors(priors),
+                                   progress=lambda v, d, t: bar.update(task, completed=d, total=t,
+                                                                       description=v))
+    table = report.markdown()
+    if json_out is not None:
+        write_text(json_out, json.dumps(report.to_json(), indent=1) + "\n")
+    if md_out is not None:
+        write_text(md_out, f"# Answer ceilings: {data.name}, split {split}, {report.images} images\n\n{table}")
+    if figure is not None:
+        ceiling_plot(report, figure, f"{data.name}, split {split}: one table replaced by the truth")
+    console.print(table, markup=False, highlight=False, soft_wrap=True)
+    console.print(f"evidence cache: {store.hits} hits, {store.misses} misses", markup=False, highlight=False,
+                  soft_wrap=True)
+
+
 def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:
     eval_app.command("vqa")(vqa_command)
+    eval_app.command("ceilings")(ceilings_command)
     eval_app.command("calibration")(calibration_command)
     train_app.command("answer-calibration")(train_answer_calibration_command)

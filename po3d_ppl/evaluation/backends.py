@@ -104,8 +104,9 @@ class SimulatedBackend:
 #: 3: the object parser merges fragments of one object (``ParserConfig.merge_penalty``). 4: contested cells and
 #: occluded objects added (``ParserConfig.contest_margin``). 5: masks split between touching proposals by colour
 #: (``ParserConfig.colour_margin``). 6: a second search on the foreground the first reading leaves unexplained
-#: (``ParserConfig.region_min_score``).
-EVIDENCE_VERSION = 6
+#: (``ParserConfig.region_min_score``). 7: part looks read under the most likely pose only
+#: (``SceneParserConfig.style_pose_hypotheses``).
+EVIDENCE_VERSION = 7
 
 
 @dataclass(frozen=True)

@@ -96,3 +96,26 @@ def difficulty_plot(panels: Sequence[tuple[str, str, Sequence[DifficultyRow], di
         ax.grid(alpha=0.3)
     axes[0][0].legend(fontsize=6, loc="lower left")
     return _save(fig, path)
+
+
+def ceiling_plot(report, path: Path, title: str = "") -> Path:
+    """Points of accuracy each oracle adds over perception, one group of bars per question file
+    (:class:`~po3d_ppl.evaluation.ceilings.CeilingReport`)."""
+    import numpy as np
+
+    plt = _pyplot()
+    base, others = report.rows[0], report.rows[1:]
+    files = sorted(report.questions)
+    fig, ax = plt.subplots(figsize=(1.6 + 1.4 * len(files), 3.4))
+    width = 0.8 / max(len(others), 1)
+    x = np.arange(len(files))
+    cmap = plt.get_cmap("tab20")
+    for k, row in enumerate(others):
+        gains = [100 * (row.files[f] - base.files[f]) for f in files]
+        ax.bar(x + (k - (len(others) - 1) / 2) * width, gains, width, label=row.variant, color=cmap(k % 20))
+    ax.axhline(0, color="k", lw=0.8)
+    ax.set_xticks(x, [f"{f}\n({100 * base.files[f]:.1f}%)" for f in files])
+    ax.set_ylabel("accuracy gained (points)")
+    ax.set_title(title or "answers with one table replaced by the truth")
+    ax.legend(fontsize=7, ncol=2, frameon=False, bbox_to_anchor=(1.0, 1.0), loc="upper left")
+    return _save(fig, path)

@@ -24,7 +24,7 @@ from po3d_ppl.evaluation.objects import fit_platt, match_boxes, require_both_out
 from po3d_ppl.perception.projection_calibration import STYLE_TABLE, TABLES, ProjectionCalibration, edge_states
 
 
-def _matched(evidence, scene, min_iou: float):
+def matched_proposals(evidence, scene, min_iou: float = 0.5):
     """(proposal, object, subtype index) of every proposal matched to an object (box IoU >= ``min_iou``), and the
     proposal of each matched object."""
     objs = scene.objects
@@ -44,7 +44,7 @@ def table_entries(evidence, scene, min_iou: float = 0.5) -> dict[str, tuple[list
         out[name][0].append(float(value))
         out[name][1].append(bool(truth))
 
-    matched, proposal_of = _matched(evidence, scene, min_iou)
+    matched, proposal_of = matched_proposals(evidence, scene, min_iou)
     for i, o, j, s in matched:
         add("occluded_logodds", evidence.occluded_logodds[i], o.occluded)
         others = [(k, proposal_of[k]) for k in proposal_of if k != j]
@@ -66,7 +66,7 @@ def style_entries(evidence, scene, min_iou: float = 0.5) -> tuple[list[list[floa
     from po3d_ppl.perception.simulated import part_visible
 
     tables, truths = [], []
-    for i, o, _, s in _matched(evidence, scene, min_iou)[0]:
+    for i, o, _, s in matched_proposals(evidence, scene, min_iou)[0]:
         for p, raw in enumerate(ontology.PARTS[o.subtype]):
             if part_visible(o, raw):
                 style = o.parts.get(raw)

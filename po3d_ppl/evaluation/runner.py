@@ -156,7 +156,8 @@ def split_items(dataset, split: str, files: Sequence[str] | None = None) -> dict
         for q in questions:
             by_image.setdefault(int(q["image_index"]), []).append(QuestionItem.from_public(file, q))
     if not by_image:
-        raise InputError("--split", f"split {split!r} of {dataset.root} has no questions")
+        which = "" if files is None else f" in the files {', '.join(files)} (it has {', '.join(sorted(part.questions))})"
+        raise InputError("--split", f"split {split!r} of {dataset.root} has no questions{which}")
     return dict(sorted(by_image.items()))
 
 
@@ -177,12 +178,17 @@ def evaluate(dataset, split: str, backend: EvidenceBackend, methods: Sequence[st
              cache: EvidenceCache | None = None, limit: int | None = None, parse: bool = False, parser=None,
              priors=None, budget=None, device: str = "cpu",
              progress: Callable[[int, int], None] | None = None, semantics: str = "intended",
-             answer_calibration=None, proposal_priors: bool = True) -> EvalRun:
+             answer_calibration=None, proposal_priors: bool = True,
+             evidence_transform: Callable[[Any, Any], Any] | None = None,
+             files: Sequence[str] | None = None) -> EvalRun:
     """Answer the split's questions (the first ``limit`` images) by every method on one evidence per image, under
     ``semantics`` (``public``: the dataset must be built with it; the evidence reads the public annotation).
     With an ``answer_calibration`` (:class:`~po3d_ppl.reasoning.answer_calibration.AnswerCalibration`), ``ours``
     is also reported recalibrated, as ``ours_calibrated``. ``proposal_priors`` lets the back-end set the priors
-    its calibration knows for its proposals (``EvidenceBackend.scene_priors``); False uses ``priors`` as given."""
+    its calibration knows for its proposals (``EvidenceBackend.scene_priors``); False uses ``priors`` as given.
+    ``evidence_transform(evidence, scene)``, when given, edits each image's evidence after calibration (an analysis
+    that substitutes truth, :mod:`po3d_ppl.evaluation.ceilings`; the cache keeps the untouched evidence).
+    ``files`` keeps only those question files (e.g. ``("occlusion",)``)."""
     from dataclasses import asdict
 
     from po3d_ppl.catalogue.semantics import PUBLIC, check_semantics
@@ -198,7 +204,7 @@ def evaluate(dataset, split: str, backend: EvidenceBackend, methods: Sequence[st
         if m not in METHODS:
             raise InputError("methods", f"unknown method {m!r}; choose from {', '.join(METHODS)}")
     cache = cache or EvidenceCache(None)
-    by_image = split_items(dataset, split)
+    by_image = split_items(dataset, split, files)
     images = list(by_image)[:limit] if limit else list(by_image)
     once = _OnceParser(parser or _default_parser()) if parse else None
     timings = {"perception_s": 0.0, "parse_s": 0.0, "posterior_s": 0.0,
@@ -214,6 +220,8 @@ def evaluate(dataset, split: str, backend: EvidenceBackend, methods: Sequence[st
         evidence = backend.calibrate(cache.get(observation.image_path, identity,
                                                lambda: backend.evidence(observation), device=device))
         timings["perception_s"] += time.perf_counter() - start
+        if evidence_transform is not None:
+            evidence = evidence_transform(evidence, observation.scene)
         reasoner = SceneReasoner(evidence, priors, semantics)
         start = time.perf_counter()
         reasoner.posteriors  # computed once here, so the per-question timings are reasoning alone
