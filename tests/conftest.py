@@ -56,3 +56,13 @@ def shared_dataset(tmp_path_factory):
     root = tmp_path_factory.mktemp("shared_dataset")
     report = build_dataset(root, BuildConfig(**SHARED_DATASET), workers=2)
     return root, report, load_dataset(root)
+
+
+@pytest.fixture(scope="session")
+def tiny_eval_dataset(tmp_path_factory):
+    """A loaded six-scene dataset at 160x120 (seed 77): the evaluation tests' questions and scenes."""
+    from po3d_ppl.questions.dataset import BuildConfig, build_dataset, load_dataset
+
+    root = tmp_path_factory.mktemp("eval_data")
+    build_dataset(root, BuildConfig(scenes=6, seed=77, width=160, height=120), workers=1)
+    return load_dataset(root)

@@ -1,5 +1,5 @@
 """The evaluation stage: every method on one evidence per image, the evidence cache, calibration metrics,
-difficulty binning and the ``po3d eval`` commands (on a tiny dataset built here)."""
+difficulty binning and the ``po3d eval`` commands (on the tiny dataset of conftest)."""
 
 from __future__ import annotations
 
@@ -21,12 +21,8 @@ SPLIT = "train"  # 4 of the 6 scenes
 
 
 @pytest.fixture(scope="module")
-def tiny(tmp_path_factory):
-    from po3d_ppl.questions.dataset import BuildConfig, build_dataset, load_dataset
-
-    root = tmp_path_factory.mktemp("eval_data")
-    build_dataset(root, BuildConfig(scenes=6, seed=77, width=160, height=120), workers=1)
-    return load_dataset(root)
+def tiny(tiny_eval_dataset):
+    return tiny_eval_dataset
 
 
 @pytest.fixture(scope="module")

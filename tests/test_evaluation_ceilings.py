@@ -1,5 +1,5 @@
 """Answer ceilings: oracles write the truth of their tables only, on matched proposals, and the brackets reach the
-reference answers when the sensor reads every object (a tiny dataset built here, the simulated sensor)."""
+reference answers when the sensor reads every object (the tiny dataset of conftest, the simulated sensor)."""
 
 from __future__ import annotations
 
@@ -21,12 +21,8 @@ TABLES = ("exist_logodds", "subtype_loglik", "color_loglik", "material_loglik", 
 
 
 @pytest.fixture(scope="module")
-def tiny(tmp_path_factory):
-    from po3d_ppl.questions.dataset import BuildConfig, build_dataset, load_dataset
-
-    root = tmp_path_factory.mktemp("ceiling_data")
-    build_dataset(root, BuildConfig(scenes=4, seed=91, width=160, height=120), workers=1)
-    return load_dataset(root)
+def tiny(tiny_eval_dataset):
+    return tiny_eval_dataset
 
 
 @pytest.fixture(scope="module")
