@@ -83,3 +83,8 @@ def build_command(data: Path, manifest: dict) -> str:
     config = manifest.get("config", {})
     return shlex.join(["po3d", "dataset", "build", "--out", str(data), "--scenes", str(config.get("scenes")),
                        "--seed", str(manifest.get("seed"))])
+
+
+def comma_list(text: str) -> list[str]:
+    """The non-empty, stripped items of a comma-separated option (``"a, b,"`` -> ``["a", "b"]``)."""
+    return [item.strip() for item in text.split(",") if item.strip()]

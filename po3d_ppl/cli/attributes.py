@@ -15,7 +15,7 @@ from typing import Annotated
 
 import typer
 
-from po3d_ppl.cli._common import build_command, dataset_manifest
+from po3d_ppl.cli._common import build_command, comma_list, dataset_manifest
 
 
 def _bar(console, what: str):
@@ -120,7 +120,7 @@ def train_attributes_command(
     console = Console()
     config = TrainConfig(seed=seed, epochs=epochs, batch_size=batch_size, lr=lr, part_fraction=part_fraction,
                          part_shift=part_shift, max_steps=max_steps)
-    split_list = [s.strip() for s in splits.split(",") if s.strip()]
+    split_list = comma_list(splits)
     train = AttributeData.concat([_load(console, d, s, config.net, cache, jitter=jitter)
                                   for d in data for s in split_list])
     val = _load(console, data[0], val_split, config.net, cache, jitter=jitter)
@@ -195,7 +195,7 @@ def eval_attributes_command(
     torch.set_num_threads(threads)
     console = Console()
     net = load_attribute_net(model_dir, device=device)
-    split_list = [s.strip() for s in splits.split(",") if s.strip()]
+    split_list = comma_list(splits)
     with _bar(console, f"measure {data.name}") as bar:
         task = bar.add_task("eval", total=None)
         report = evaluate_dataset(net, data, split_list, limit,

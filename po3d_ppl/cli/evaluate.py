@@ -12,6 +12,8 @@ from pathlib import Path
 
 import typer
 
+from po3d_ppl.cli._common import comma_list
+
 _DATA = typer.Option(..., "--data", help="Dataset directory from `po3d dataset build`.")
 _SPLIT = typer.Option("test", "--split", help="train, val, test, or all (every image: a dataset seed held out as a "
                                                "whole).")
@@ -300,11 +302,11 @@ def ceilings_command(
     dataset = load_dataset(data)
     backend = make_backend(perception, noise, seed)
     store = EvidenceCache(cache if cache is not None else Path(data) / "eval_cache")
-    chosen = None if oracles is None else [name.strip() for name in oracles.split(",") if name.strip()]
+    chosen = None if oracles is None else comma_list(oracles)
     with _progress(console, "eval ceilings") as bar:
         task = bar.add_task("ceilings", total=None)
         report = evaluate_ceilings(dataset, split, backend, cache=store, limit=limit, oracles=chosen,
-                                   files=None if files is None else [f.strip() for f in files.split(",") if f.strip()],
+                                   files=None if files is None else comma_list(files),
                                    priors=resolve_priors(priors),
                                    progress=lambda v, d, t: bar.update(task, completed=d, total=t,
                                                                        description=v))

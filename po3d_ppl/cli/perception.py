@@ -12,6 +12,8 @@ from pathlib import Path
 
 import typer
 
+from po3d_ppl.cli._common import comma_list
+
 
 def _read_images(console, data: list[Path], splits: list[str], limit: int | None, what: str):
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
@@ -88,7 +90,7 @@ def train_perception_command(
         crop_hw = ()
     if len(crop_hw) != 2:
         raise InputError("--crop", f"expected HEIGHTxWIDTH such as 256x320, got {crop!r}")
-    split_list = [s.strip() for s in splits.split(",") if s.strip()]
+    split_list = comma_list(splits)
     torch.set_num_threads(threads)
     console = Console()
     config = TrainConfig(seed=seed, epochs=epochs, batch_size=batch_size, crop=crop_hw, lr=lr, max_steps=max_steps,

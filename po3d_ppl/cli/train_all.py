@@ -30,6 +30,8 @@ from typing import Annotated, Any
 
 import typer
 
+from po3d_ppl.cli._common import comma_list
+
 #: Every stage, in the order they run (each reads only what the ones before it wrote).
 STAGES = ("datasets", "parser", "perception", "background", "calibration", "attributes", "viewpoint", "projection",
           "priors", "answer_calibration")
@@ -587,7 +589,7 @@ def train_all_command(
     elif scale == "tiny" and out.resolve() == shipped:
         raise InputError("--out", f"--scale tiny would overwrite the shipped models in {shipped}; give another "
                                   "directory")
-    chosen = [s.strip() for s in stages.split(",") if s.strip()] if stages else None
+    chosen = comma_list(stages) if stages else None
     if stages is not None and not chosen:
         raise InputError("--stages", f"name at least one stage of {','.join(STAGES)}")
     train_all(data, out, seed=seed, scale=scale, stages=chosen, threads=threads, jobs=jobs)

@@ -13,7 +13,7 @@ from typing import Annotated
 
 import typer
 
-from po3d_ppl.cli._common import build_command, dataset_manifest
+from po3d_ppl.cli._common import build_command, comma_list, dataset_manifest
 from po3d_ppl.cli.attributes import _load as _load_crops
 
 
@@ -80,7 +80,7 @@ def train_viewpoint_command(
     torch.set_num_threads(threads)
     console = Console()
     config = ViewpointTrainConfig(seed=seed, epochs=epochs, batch_size=batch_size, lr=lr, max_steps=max_steps)
-    split_list = [s.strip() for s in splits.split(",") if s.strip()]
+    split_list = comma_list(splits)
     train = ViewpointData.concat([_load(console, d, s, config.net, cache) for d in data for s in split_list])
     val = _load(console, data[0], val_split, config.net, cache)
     console.print(f"training on {train.num_objects} objects {split_counts(train)}; calibrating on "
@@ -149,7 +149,7 @@ def eval_viewpoint_command(
     torch.set_num_threads(threads)
     console = Console()
     net = load_viewpoint_net(model_dir)
-    split_list = [s.strip() for s in splits.split(",") if s.strip()]
+    split_list = comma_list(splits)
     held = ViewpointData.concat([_load(console, data, s, net.config, cache) for s in split_list])
     report = {**measure(net, held), "data": str(data), "splits": split_list}
     _print_measure(console, f"viewpoint on {data} (GT masks, >= 200 px)", report)

@@ -264,10 +264,10 @@ def _accuracy(records, key: Callable[[Any], str | None]) -> dict[str, float]:
 def evaluate_ceilings(dataset, split: str, backend, *, cache=None, limit: int | None = None, priors=None,
                       oracles: Sequence[str] | None = None, files: Sequence[str] | None = None,
                       progress: Callable[[str, int, int], None] | None = None) -> CeilingReport:
-    """``ours`` on every variant of :func:`variants`, each image's evidence read once from ``cache`` (or parsed
-    once into it) and edited per variant; ``files`` keeps only those question files (exact inference costs about
-    0.1 s a question, so every variant of a 500-image split takes hours). ``progress(variant, done, total)``
-    after each image."""
+    """``ours`` on every variant of :func:`variants`: one :func:`~po3d_ppl.evaluation.runner.evaluate` run each,
+    on the evidence of ``cache`` (parsed into it on the first run when missing; every run reads it again, which
+    costs little beside exact inference at about 0.1 s a question) edited per variant. ``files`` keeps only those
+    question files. ``progress(variant, done, total)`` after each image."""
     from po3d_ppl.evaluation.runner import evaluate
 
     rows, questions, images = [], {}, 0
@@ -275,9 +275,9 @@ def evaluate_ceilings(dataset, split: str, backend, *, cache=None, limit: int | 
         run = evaluate(dataset, split, backend, ("ours",), cache=cache, limit=limit, priors=priors, files=files,
                        evidence_transform=lambda evidence, scene, v=variant: with_truth(evidence, scene, v),
                        progress=None if progress is None else (lambda d, t, v=variant: progress(v, d, t)))
-        files = _accuracy(run.records, lambda r: r.item.file)
+        by_file = _accuracy(run.records, lambda r: r.item.file)
         overall = sum(r.correct("ours") for r in run.records) / max(len(run.records), 1)
-        rows.append(CeilingRow(variant, overall, files, _accuracy(run.records, lambda r: r.item.column)))
-        questions = {f: sum(r.item.file == f for r in run.records) for f in files}
+        rows.append(CeilingRow(variant, overall, by_file, _accuracy(run.records, lambda r: r.item.column)))
+        questions = {f: sum(r.item.file == f for r in run.records) for f in by_file}
         images = run.images
     return CeilingReport(rows, questions, images)

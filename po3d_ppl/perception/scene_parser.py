@@ -531,8 +531,9 @@ def _project(proposals, xy: list[list[float]], yaw_offsets: list[float], subtype
         centre = mesh.box_centre
         positions[i] = torch.tensor(centre, dtype=DTYPE)
         depths[i] = float(project_points(camera, np.asarray(centre, dtype=np.float64))[2])
-    part_maps: list[dict[tuple[int, int], torch.Tensor]] = [{} for _ in range(config.pose_hypotheses)]
-    map_weights = torch.zeros(config.pose_hypotheses, n, S, dtype=DTYPE)
+    looks_read = min(config.style_pose_hypotheses or config.pose_hypotheses, config.pose_hypotheses)
+    part_maps: list[dict[tuple[int, int], torch.Tensor]] = [{} for _ in range(looks_read)]
+    map_weights = torch.zeros(looks_read, n, S, dtype=DTYPE)
     for i in range(n):
         others = [j for j in range(n) if j != i]
         for s, w_sub in weights[i]:
@@ -546,13 +547,12 @@ def _project(proposals, xy: list[list[float]], yaw_offsets: list[float], subtype
                 part_visible[i, s, :parts] += w_pose * graded.part_visible
                 part_occluded[i, s, :parts] += w_pose * graded.part_occluded
                 part_occludes[i, s, :parts][:, others] += w_pose * graded.part_occludes
-                if attributes is not None:  # the parts this hypothesis shows, for their looks
+                if attributes is not None and rank < looks_read:  # the parts this hypothesis shows, for looks
                     own = gbuffer.geometry.reshape(gbuffer.height, gbuffer.width) == 0
                     part_maps[rank][(i, s)] = torch.from_numpy(np.where(own, gbuffer.part_ids, -1).astype(np.int64))
                     map_weights[rank, i, s] = w_pose
     if attributes is not None and any(part_maps):
-        part_style = _mixed_styles(attributes, img, proposals.masks, part_maps, map_weights,
-                                   config.style_pose_hypotheses)
+        part_style = _mixed_styles(attributes, img, proposals.masks, part_maps, map_weights)
     eye = np.eye(n, dtype=bool)
     tables = {
         "occluded_logodds": torch.tensor(_logodds(occluded, floor), dtype=DTYPE),
