@@ -352,3 +352,41 @@ def test_a_missed_object_is_found_again_in_the_foreground_nothing_explains(three
                                     explained) is None
     with pytest.raises(InputError, match="explained"):
         add_region_proposals(search, full[:10])
+
+
+def test_a_centre_peak_where_no_proposal_stands_adds_one_there_and_only_there(three_apart):
+    """add_centre_proposals: with one accepted proposal taken out, a centre-head peak at its object's base centre
+    proposes it again (near its position, existence from the peak's probability); peaks on proposals that stand
+    already, under the threshold or with the centre proposals off add nothing."""
+    from dataclasses import replace
+
+    from po3d_ppl.perception.calibration import TableCalibration
+    from po3d_ppl.perception.centres import CentrePeaks
+    from po3d_ppl.perception.image_input import project_points
+    from po3d_ppl.perception.object_parser import _best_hypotheses, add_centre_proposals
+
+    _, search = three_apart
+    camera, grid = search.found_with, search.grid
+    config = replace(search.config, centre_threshold=0.3, centre_existence=(1.0, 0.5))
+    # the three objects as coarse grid hypotheses (the 3D-NMS's frame: the found-with camera)
+    accepted = []
+    for located in search.located:
+        pixel = project_points(search.camera, np.array([located.x, located.y, 0.0]))[:2]
+        at = int(torch.linalg.norm(grid.pixel.double() - torch.tensor(pixel), dim=-1).argmin())
+        accepted.append(_best_hypotheses(search.scores, [at], grid, camera, config)[0])
+    pixels = torch.stack([grid.pixel[h.position].double() for h in accepted])
+    calibration = TableCalibration()
+    lost = accepted[1]
+    kept = [accepted[0], accepted[2]]
+    peaks = CentrePeaks(pixels[[1, 0]], torch.tensor([0.8, 0.9]))
+    grown, scores, added = add_centre_proposals(kept, [50.0, 50.0], peaks, search.scores, grid, camera, config,
+                                                calibration)
+    assert added == 1 and len(grown) == 3 and grown[-1].position == lost.position
+    # the score the identity calibration maps to the log-odds 1.0 * logit(0.8) + 0.5
+    assert scores[-1] == pytest.approx(config.existence_threshold + np.log(0.8 / 0.2) + 0.5)
+    _, _, none = add_centre_proposals(accepted, [50.0] * 3, peaks, search.scores, grid, camera, config, calibration)
+    assert none == 0  # every peak stands on an accepted footprint
+    weak = CentrePeaks(pixels[[1]], torch.tensor([0.2]))
+    assert add_centre_proposals(kept, [50.0] * 2, weak, search.scores, grid, camera, config, calibration)[2] == 0
+    off = replace(config, centre_threshold=None)
+    assert add_centre_proposals(kept, [50.0] * 2, peaks, search.scores, grid, camera, off, calibration)[2] == 0

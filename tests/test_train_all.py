@@ -28,6 +28,7 @@ MODELS = {
     "object_calibration": ("object_calibration.safetensors",),
     "attributes": ("attributes.safetensors",),
     "viewpoint": ("viewpoint.safetensors",),
+    "centres": ("centres.safetensors",),
     "projection_calibration": ("projection_calibration.safetensors",),
     "priors": ("priors.json",),
     "answer_calibration": ("answer_calibration.json",),
@@ -57,8 +58,8 @@ def test_tiny_chain_writes_every_model_with_its_sha256(tiny_chain):
         assert entry["command"].startswith("po3d train "), name
     priors = manifest["priors"]
     assert "--split train" in priors["command"] and priors["metrics"]["scenes"] > 0
-    assert sorted(p.name for p in data.iterdir() if p.name != "attribute_crops") == sorted(d.name for d in
-                                                                                         TINY.datasets)
+    caches = ("attribute_crops", "centre_features")
+    assert sorted(p.name for p in data.iterdir() if p.name not in caches) == sorted(d.name for d in TINY.datasets)
     assert all(json.loads((data / d.name / "manifest.json").read_text())["seed"] == d.seed for d in TINY.datasets)
 
 
@@ -141,8 +142,9 @@ def test_no_scale_uses_the_held_out_test_seed():
 
 
 def _options(words: list[str]) -> dict[str, str]:
-    """Option -> value of a command line (paths and directories left out)."""
-    skip = {"--data", "--out", "--eval-data", "--model-dir", "--cache"}
+    """Option -> value of a command line (paths and directories left out, and --threads: the chain's is the run's
+    choice, each model's manifest records the one it was trained with)."""
+    skip = {"--data", "--out", "--eval-data", "--model-dir", "--cache", "--threads"}
     options, i = {}, 0
     while i < len(words):
         if words[i].startswith("--") and i + 1 < len(words) and not words[i + 1].startswith("--"):
@@ -170,6 +172,7 @@ def test_full_scale_repeats_the_shipped_commands(tmp_path):
                 "calibration": shipped["object_calibration"]["command"],
                 "attributes": shipped["attributes"]["command"],
                 "viewpoint": shipped["viewpoint"]["command"],
+                "centres": shipped["centres"]["command"],
                 "projection": shipped["projection_calibration"]["command"]}
     for label, command in recorded.items():
         words = shlex.split(command)

@@ -31,7 +31,7 @@ app.add_typer(eval_app, name="eval")
 
 #: Command modules, in help order. Each defines ``register(app, train_app, eval_app)``.
 _MODULES = ("demo", "world", "dataset", "execute", "language", "answer", "perceive", "perception", "attributes",
-            "viewpoint", "objects", "priors", "evaluate", "results", "train_all")
+            "viewpoint", "centres", "objects", "priors", "evaluate", "results", "train_all")
 
 for _name in _MODULES:
     importlib.import_module(f"po3d_ppl.cli.{_name}").register(app, train_app, eval_app)

@@ -18,7 +18,8 @@ _LIMIT = typer.Option(None, "--limit", min=1, help="Only the first N images.")
 _THREADS = typer.Option(1, "--threads", min=1, help="torch CPU threads (one is fastest on a busy 2-core machine).")
 
 
-def _parse_all(data: Path, split, limit, calibration, console, label: str, model_dir: Path | None = None):
+def _parse_all(data: Path, split, limit, calibration, console, label: str, model_dir: Path | None = None,
+               config=None):
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
     from po3d_ppl.evaluation.objects import parse_dataset
@@ -34,7 +35,7 @@ def _parse_all(data: Path, split, limit, calibration, console, label: str, model
                   console=console) as bar:
         task = bar.add_task(label, total=None)
         return parse_dataset(data, split, limit,
-                             lambda image: parse_objects(image, model, calibration=calibration, background=background),
+                             lambda image: parse_objects(image, model, config, calibration, background),
                              progress=lambda done, total: bar.update(task, completed=done, total=total))
 
 
@@ -63,10 +64,13 @@ def train_calibration_command(
     from po3d_ppl.evaluation.objects import fit_calibration, save_outcomes
     from po3d_ppl.model_store import models_dir
     from po3d_ppl.perception.calibration import MODEL_NAME, TableCalibration
+    from po3d_ppl.perception.object_parser import ParserConfig
 
     torch.set_num_threads(threads)
     console = Console()
-    results = _parse_all(data, split, limit, TableCalibration(), console, "parse (raw scores)", model_dir)
+    # the 3D-NMS's proposals only: centre proposals take their existence from the centre head, not from this fit
+    results = _parse_all(data, split, limit, TableCalibration(), console, "parse (raw scores)", model_dir,
+                         ParserConfig(centre_threshold=None))
     if outcomes is not None:
         save_outcomes(results, outcomes)
     calibration, report = fit_calibration(results)

@@ -105,8 +105,8 @@ class SimulatedBackend:
 #: occluded objects added (``ParserConfig.contest_margin``). 5: masks split between touching proposals by colour
 #: (``ParserConfig.colour_margin``). 6: a second search on the foreground the first reading leaves unexplained
 #: (``ParserConfig.region_min_score``). 7: part looks read under the most likely pose only
-#: (``SceneParserConfig.style_pose_hypotheses``).
-EVIDENCE_VERSION = 7
+#: (``SceneParserConfig.style_pose_hypotheses``). 8: centre proposals (``ParserConfig.centre_threshold``).
+EVIDENCE_VERSION = 8
 
 
 @dataclass(frozen=True)
@@ -176,7 +176,7 @@ class ImageBackend:
             return {name: {f: meta["sha256"] for f, meta in entry.get("files", {}).items()}
                     for name, entry in manifest.items() if name in names}
 
-        used = ("perception_features", "object_calibration", "background", "attributes", "viewpoint")
+        used = ("perception_features", "object_calibration", "background", "attributes", "viewpoint", "centres")
         parser = ImageParser.load(self.models_dir, calibrated_projection=self.calibrated_projection)
         calibration = parser.projection_calibration
         parser = dataclasses.replace(parser, projection_calibration=None)

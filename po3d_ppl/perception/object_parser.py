@@ -30,7 +30,9 @@
    and the two proposals show one body colour. *Occluded objects added* (:func:`add_occluded`): from here on a
    mesh hides a cell only where its evidence is within ``contest_margin`` of the best covering mesh's
    (:func:`claimed_cells`), so a peak shut out by a near mesh's overshoot is accepted by the same rules when its
-   colour differs from its neighbours'.
+   colour differs from its neighbours'. *Centre proposals* (:func:`add_centre_proposals`): the centre head
+   (:mod:`~po3d_ppl.perception.centres`, a small network on the same features) marks where objects stand, hidden
+   or not; each of its peaks whose best grid hypothesis meets no accepted footprint is accepted too.
 4. *Local re-search and refinement*: around each accepted proposal every hypothesis is re-scored on a finer grid
    of image points (``local_step_px``), which gives its tables; then ``refine_steps`` Adam steps on (x, y, yaw) of
    all proposals at once maximise the rasterised render-and-compare score on their unoccluded cells (the hard
@@ -81,6 +83,7 @@ from po3d_ppl import ontology
 from po3d_ppl.errors import InputError
 from po3d_ppl.perception.background import BackgroundModel, load_background
 from po3d_ppl.perception.calibration import TableCalibration, load_calibration
+from po3d_ppl.perception.centres import CentreNet, CentrePeaks, centre_peaks, load_centre_net
 from po3d_ppl.perception.features import STRIDE, extract_features
 from po3d_ppl.perception.image_input import CameraPrior, ImageInput, backproject_to_plane, load_image, project_points
 from po3d_ppl.perception.neural_mesh import FeatureModel, NeuralMeshes, load_feature_model
@@ -201,6 +204,15 @@ class ParserConfig:
     region_open_px: int = 5
     region_cell_share: float = 0.25
     region_min_cover: float = 0.5
+    #: Centre proposals (:func:`add_centre_proposals`): the centre head's peaks (:mod:`~po3d_ppl.perception.centres`)
+    #: over ``centre_threshold`` propose an object where no accepted footprint stands (None: none). A peak takes the
+    #: coarse grid position whose base centre is nearest, within ``centre_snap_px``, and there its best hypothesis.
+    centre_threshold: float | None = 0.3
+    centre_snap_px: float = 16.0
+    #: A centre proposal's existence log-odds: ``a * logit(p) + b`` of its peak's probability p. Fitted on the 120
+    #: images of seed 712: 14 of its 20 centre proposals matched an object, with no trend in p over the threshold,
+    #: so a constant, logit(0.7).
+    centre_existence: tuple[float, float] = (0.0, 0.85)
 
     def __post_init__(self) -> None:
         if not (isinstance(self.azimuth_bins, int) and self.azimuth_bins >= 12):
@@ -1078,15 +1090,16 @@ def _boxes(masks: torch.Tensor) -> torch.Tensor:
 
 
 def parse_objects(image, model: FeatureModel | None = None, config: ParserConfig | None = None,
-                  calibration: TableCalibration | None = None, background: BackgroundModel | None = None
-                  ) -> ObjectProposals:
+                  calibration: TableCalibration | None = None, background: BackgroundModel | None = None,
+                  centres: CentreNet | None = None) -> ObjectProposals:
     """Detect, classify and pose every object of ``image`` (anything :func:`load_image` reads) by coarse
     render-and-compare search and depth-ordered 3D-NMS. Reads pixels only (the camera is the prior's base).
     ``calibration`` rescales the tables (default: the shipped fit; ``TableCalibration()`` gives raw scores);
-    ``model`` and ``background`` default to the shipped ones (the background only if ``config.use_background``).
+    ``model``, ``background`` and ``centres`` default to the shipped ones (the background only if
+    ``config.use_background``, the centre head only if ``config.centre_threshold`` is set).
     The search (:func:`search_objects`) and the record (:func:`record_objects`) are separate so that the scene
     parser can add proposals in between (:func:`add_region_proposals`)."""
-    return record_objects(search_objects(image, model, config, calibration, background))
+    return record_objects(search_objects(image, model, config, calibration, background, centres))
 
 
 @dataclass(eq=False)
@@ -1120,12 +1133,15 @@ class ObjectSearch:
     timings: dict[str, float] = field(default_factory=dict)
     #: how many of ``located`` (the last ones) came from unexplained foreground (:func:`add_region_proposals`)
     from_regions: int = 0
+    #: how many of ``located`` came from the centre head's peaks (:func:`add_centre_proposals`)
+    from_centres: int = 0
 
 
 def search_objects(image, model: FeatureModel | None = None, config: ParserConfig | None = None,
-                   calibration: TableCalibration | None = None, background: BackgroundModel | None = None
-                   ) -> ObjectSearch:
-    """Stages 1-4 of :func:`parse_objects`: features, coarse search, 3D-NMS, local re-search and refinement."""
+                   calibration: TableCalibration | None = None, background: BackgroundModel | None = None,
+                   centres: CentreNet | None = None) -> ObjectSearch:
+    """Stages 1-4 of :func:`parse_objects`: features, coarse search, 3D-NMS (with centre proposals), local
+    re-search and refinement."""
     config = config or ParserConfig()
     model = model or _default_model()
     calibration = calibration if calibration is not None else _default_calibration()
@@ -1133,6 +1149,10 @@ def search_objects(image, model: FeatureModel | None = None, config: ParserConfi
         background = None
     elif background is None:
         background = _default_background()
+    if config.centre_threshold is None:
+        centres = None
+    elif centres is None:
+        centres = _default_centres()
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     img = load_image(image)
@@ -1163,6 +1183,11 @@ def search_objects(image, model: FeatureModel | None = None, config: ParserConfi
         accepted, new_scores = merge_fragments(accepted, new_scores, features, clutter, meshes, evidence, size_hw,
                                                templates, camera, config, chroma, colour_fg,
                                                rows_of(peak_maps, hyps, accepted))
+    from_centres = 0
+    if centres is not None:
+        peaks = centre_peaks(centres.heatmap(features), config.centre_threshold)
+        accepted, new_scores, from_centres = add_centre_proposals(accepted, new_scores, peaks, scores, grid, camera,
+                                                                  config, calibration)
     t3 = time.perf_counter()
     timings["nms"] = t3 - t2
     found = camera
@@ -1174,7 +1199,7 @@ def search_objects(image, model: FeatureModel | None = None, config: ParserConfi
     timings["refine"] = time.perf_counter() - t4
     return ObjectSearch(img, config, calibration, features, clutter, meshes, evidence, size_hw, templates, grid,
                         scores, found, camera, hyps, peak_maps, located, new_scores, tables, foreground, chroma,
-                        timings)
+                        timings, from_centres=from_centres)
 
 
 def record_objects(search: ObjectSearch) -> ObjectProposals:
@@ -1193,6 +1218,45 @@ def record_objects(search: ObjectSearch) -> ObjectProposals:
     record = _record(located, new_scores, tables, camera, config, ownership, search.calibration)
     record.timings = {**search.timings, "record": time.perf_counter() - t0}
     return record
+
+
+# --- centre proposals: where the centre head sees an object stand ----------------------------------------------------
+
+
+def add_centre_proposals(accepted: list[Hypothesis], scores_of: list[float], peaks: CentrePeaks,
+                         scores: torch.Tensor, grid: Grid, camera: Camera, config: ParserConfig,
+                         calibration: TableCalibration) -> tuple[list[Hypothesis], list[float], int]:
+    """The accepted proposals with one more for each peak of the centre head (most probable first) over
+    ``centre_threshold`` whose hypothesis meets no accepted footprint (shrunk by ``footprint_shrink``), and how
+    many were added. The 3D-NMS loses objects behind others because their evidence is their occluder's too; the
+    centre head reads where objects stand from the features instead (:mod:`~po3d_ppl.perception.centres`). A peak
+    takes the coarse grid position whose base centre is nearest (within ``centre_snap_px``) and that position's best
+    hypothesis; its existence log-odds is ``centre_existence`` applied to the peak's logit, written as the score the
+    calibration maps to it (:func:`_score_for_existence`). Proposals added here are re-searched and refined with
+    the others."""
+    if config.centre_threshold is None or len(peaks) == 0:
+        return accepted, scores_of, 0
+    kept, kept_scores = list(accepted), list(scores_of)
+    scale, bias = config.centre_existence
+    for pixel, probability in zip(peaks.pixels, peaks.probabilities.tolist()):
+        if probability <= config.centre_threshold:
+            break
+        distance = torch.linalg.norm(grid.pixel.double() - pixel.double(), dim=-1)
+        position = int(distance.argmin())
+        if float(distance[position]) > config.centre_snap_px:
+            continue
+        hyp = _best_hypotheses(scores, [position], grid, camera, config)[0]
+        if any(footprints_overlap(hyp, other, config.footprint_shrink) for other in kept):
+            continue
+        p = min(max(probability, 1e-6), 1 - 1e-6)
+        kept.append(hyp)
+        kept_scores.append(_score_for_existence(scale * math.log(p / (1 - p)) + bias, config, calibration))
+    return kept, kept_scores, len(kept) - len(accepted)
+
+
+def _score_for_existence(logodds: float, config: ParserConfig, calibration: TableCalibration) -> float:
+    """The proposal score that :func:`_record`'s existence calibration maps to ``logodds``."""
+    return config.existence_threshold + (logodds - calibration.existence_bias) / calibration.existence_scale
 
 
 # --- a second search: foreground the first reading leaves unexplained ----------------------------------------------
@@ -1380,6 +1444,11 @@ def _default_model() -> FeatureModel:
 @lru_cache(maxsize=1)
 def _default_calibration() -> TableCalibration:
     return load_calibration()
+
+
+@lru_cache(maxsize=1)
+def _default_centres() -> CentreNet:
+    return load_centre_net()
 
 
 @lru_cache(maxsize=1)

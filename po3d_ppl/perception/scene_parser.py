@@ -218,20 +218,20 @@ def _subtype_weights(subtype_loglik: torch.Tensor, config: SceneParserConfig) ->
 def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = None,
                 viewpoint: ViewpointNet | None = None, projection_calibration: ProjectionCalibration | None = None,
                 config: SceneParserConfig | None = None, parser_config=None, object_calibration=None,
-                background=None) -> ParsedScene:
+                background=None, centres=None) -> ParsedScene:
     """Read ``image`` (a path, HWC array or PIL image) into :class:`SceneEvidence` with every table filled from
     pixels. An image without vehicles gives empty evidence (N = 0), which reasoning answers (count 0, ...).
     ``viewpoint`` (optional) sharpens the pose table with a whole-object azimuth reading before the parts are
     projected (:mod:`po3d_ppl.perception.viewpoint`); ``projection_calibration`` rescales the projected tables
     (:mod:`po3d_ppl.perception.projection_calibration`). ``object_model``, ``parser_config``,
-    ``object_calibration`` and ``background`` go to the object parser (default: the shipped ones). The scene is
+    ``object_calibration``, ``background`` and ``centres`` go to the object parser (default: the shipped ones). The scene is
     read once from the object parser's proposals (:func:`read_scene`) and, where that reading leaves foreground
     unexplained and a second search adds proposals there
     (:func:`~po3d_ppl.perception.object_parser.add_region_proposals`), once more with them."""
     config = config or SceneParserConfig()
     start = time.perf_counter()
     img: ImageInput = load_image(image)
-    search = search_objects(img, object_model, parser_config, object_calibration, background)
+    search = search_objects(img, object_model, parser_config, object_calibration, background, centres)
     parsed = read_scene(img, record_objects(search), attributes, viewpoint, projection_calibration, config)
     # second search: foreground the most likely scene leaves unexplained (object_parser.add_region_proposals)
     t0 = time.perf_counter()
@@ -583,6 +583,8 @@ class ImageParser:
     background: object = None
     #: the object parser's settings (None: ``ParserConfig()``)
     parser_config: object = None
+    #: the centre head (:mod:`po3d_ppl.perception.centres`; None: the shipped one)
+    centres: object = None
     name = "render-and-compare"
 
     @classmethod
@@ -608,11 +610,12 @@ class ImageParser:
             viewpoint = load_viewpoint_net(models_dir, device)
         from po3d_ppl.perception.background import load_background
         from po3d_ppl.perception.calibration import load_calibration
+        from po3d_ppl.perception.centres import load_centre_net
         from po3d_ppl.perception.projection_calibration import load_projection_calibration
 
         return cls(load_feature_model(models_dir, device), attributes, config or SceneParserConfig(), viewpoint,
                    load_projection_calibration(models_dir) if calibrated_projection else None,
-                   load_calibration(models_dir), load_background(models_dir))
+                   load_calibration(models_dir), load_background(models_dir), centres=load_centre_net(models_dir, device))
 
     def scene_priors(self, priors: ScenePriors) -> ScenePriors:
         """The scene model's priors for this parser's proposals: ``priors`` (the world's) with the projected
@@ -624,7 +627,8 @@ class ImageParser:
         return parse_scene(image, object_model=self.object_model, attributes=self.attributes,
                            viewpoint=self.viewpoint, projection_calibration=self.projection_calibration,
                            config=self.config, parser_config=self.parser_config,
-                           object_calibration=self.object_calibration, background=self.background)
+                           object_calibration=self.object_calibration, background=self.background,
+                           centres=self.centres)
 
     def evidence(self, image) -> SceneEvidence:
         return self.parse(image).evidence
