@@ -88,3 +88,11 @@ def build_command(data: Path, manifest: dict) -> str:
 def comma_list(text: str) -> list[str]:
     """The non-empty, stripped items of a comma-separated option (``"a, b,"`` -> ``["a", "b"]``)."""
     return [item.strip() for item in text.split(",") if item.strip()]
+
+
+def write_report(path: Path | None, report: dict) -> None:
+    """Write ``report`` as indented JSON to ``path`` (its folder made), when an output was asked for."""
+    if path is None:
+        return
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(report, indent=2) + "\n")

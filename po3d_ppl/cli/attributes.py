@@ -8,14 +8,13 @@ Register with ``"attributes"`` in ``po3d_ppl.cli._MODULES``.
 from __future__ import annotations
 
 import dataclasses
-import json
 import shlex
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from po3d_ppl.cli._common import build_command, comma_list, dataset_manifest
+from po3d_ppl.cli._common import build_command, comma_list, dataset_manifest, write_report
 
 
 def _bar(console, what: str):
@@ -206,9 +205,7 @@ def eval_attributes_command(
         words += ["--limit", str(limit)]
     report = {**report, "data": str(data), "data_seed": manifest.get("seed"), "command": shlex.join(words)}
     _print_report(console, report, f"attributes on {data} ({report['images']} images, GT masks)")
-    if json_out is not None:
-        json_out.parent.mkdir(parents=True, exist_ok=True)
-        json_out.write_text(json.dumps(report, indent=2) + "\n")
+    write_report(json_out, report)
     if record:
         from po3d_ppl.model_store import models_dir, record_metrics
 

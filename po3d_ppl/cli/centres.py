@@ -6,14 +6,13 @@ Register with ``"centres"`` in ``po3d_ppl.cli._MODULES``.
 
 from __future__ import annotations
 
-import json
 import shlex
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from po3d_ppl.cli._common import build_command, comma_list, dataset_manifest
+from po3d_ppl.cli._common import build_command, comma_list, dataset_manifest, write_report
 
 
 def _load(console, data: Path, splits: list[str], model_dir: Path | None = None):
@@ -148,9 +147,7 @@ def eval_centres_command(
     net = load_centre_net(model_dir)
     report = {**measure(net, _load(console, data, comma_list(splits), model_dir), levels), "data": str(data)}
     _print_measure(console, f"centres on {data}", report)
-    if json_out is not None:
-        json_out.parent.mkdir(parents=True, exist_ok=True)
-        json_out.write_text(json.dumps(report, indent=2) + "\n")
+    write_report(json_out, report)
 
 
 def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:

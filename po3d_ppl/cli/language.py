@@ -9,6 +9,8 @@ from pathlib import Path
 
 import typer
 
+from po3d_ppl.cli._common import write_report
+
 _PARSER_DIR_HELP = ("Another parser directory, parsing together with --model-dir's single parser as an ensemble "
                     "(repeat for more; see po3d_ppl/language/seq2seq/ensemble.py).")
 _ENSEMBLE_RULE_HELP = ("How an ensemble's members' program log-probabilities combine: product (their mean) or mixture "
@@ -264,9 +266,7 @@ def eval_parser_command(
     worst = sorted(report["per_family"].items(), key=lambda kv: kv[1]["exact_match"])[:3]
     console.print("lowest families: " + ", ".join(f"{k} {v['exact_match']:.3f} ({v['count']})" for k, v in worst),
                   markup=False, highlight=False)
-    if json_out is not None:
-        json_out.parent.mkdir(parents=True, exist_ok=True)
-        json_out.write_text(json.dumps(report, indent=2) + "\n")
+    write_report(json_out, report)
     if record:
         from po3d_ppl.language.seq2seq.model_io import MODEL_NAME
         from po3d_ppl.model_store import models_dir, record_metrics
@@ -483,8 +483,7 @@ def eval_language_command(
     if json_out is not None:
         report["misses"] = [{"id": j.record.id, "question": j.record.question, "group": j.record.family_group,
                              "predicted": j.predicted, "confidence": j.confidence} for j in judged if not j.correct]
-        json_out.parent.mkdir(parents=True, exist_ok=True)
-        json_out.write_text(json.dumps(report, indent=2) + "\n")
+        write_report(json_out, report)
     if record:
         from po3d_ppl.model_store import models_dir, record_metrics
 

@@ -6,14 +6,13 @@ Register with ``"viewpoint"`` in ``po3d_ppl.cli._MODULES``.
 
 from __future__ import annotations
 
-import json
 import shlex
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from po3d_ppl.cli._common import build_command, comma_list, dataset_manifest
+from po3d_ppl.cli._common import build_command, comma_list, dataset_manifest, write_report
 from po3d_ppl.cli.attributes import _load as _load_crops
 
 
@@ -153,9 +152,7 @@ def eval_viewpoint_command(
     held = ViewpointData.concat([_load(console, data, s, net.config, cache) for s in split_list])
     report = {**measure(net, held), "data": str(data), "splits": split_list}
     _print_measure(console, f"viewpoint on {data} (GT masks, >= 200 px)", report)
-    if json_out is not None:
-        json_out.parent.mkdir(parents=True, exist_ok=True)
-        json_out.write_text(json.dumps(report, indent=2) + "\n")
+    write_report(json_out, report)
 
 
 def register(app: typer.Typer, train_app: typer.Typer, eval_app: typer.Typer) -> None:
