@@ -1,6 +1,6 @@
 """Where objects stand, read from the image: a heatmap of object *base centres* (the ground point under each
-object's centre, projected) from the object parser's stride-8 features. It seeds the parser's third search
-(:func:`~po3d_ppl.perception.object_parser.add_centre_proposals`) for the objects render-and-compare misses.
+object's centre, projected) from the object parser's stride-8 features. Its peaks propose, inside the 3D-NMS
+(:func:`~po3d_ppl.perception.object_parser.add_centre_proposals`), the objects render-and-compare misses.
 
 **Why a learned head beside render-and-compare.** The 3D-NMS accepts a hypothesis when it explains enough image
 that no accepted proposal explains already. An object behind another shows a fraction of its mesh and shares its

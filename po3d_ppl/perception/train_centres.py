@@ -100,7 +100,8 @@ def load_centre_data(data: Path | str, splits: Sequence[str], *, model_dir: Path
                          width, height, k])
         if progress is not None:
             progress(n + 1, len(indices))
-    out = CentreData(torch.stack(features) if features else torch.zeros(0, 64, 1, 1, dtype=torch.float16),
+    empty = torch.zeros(0, model.extractor.config.dim, 1, 1, dtype=torch.float16)
+    out = CentreData(torch.stack(features) if features else empty,
                      torch.tensor(rows, dtype=torch.float32).reshape(-1, len(OBJECT_COLUMNS)),
                      torch.tensor(indices, dtype=torch.long))
     if use_cache:
