@@ -1,8 +1,9 @@
 """The object parser's second search, side by side: detection after the first reading and after the second.
 
 Each image of ``--data`` is read once by the shipped models: the object parser's search (centre proposals
-included), its record (the first reading, what ``ParserConfig(region_min_score=None)`` ships), the scene parser's most likely scene, and then
-:func:`~po3d_ppl.perception.object_parser.add_region_proposals` on the foreground that scene leaves unexplained.
+included), its record (the first reading, what ``ParserConfig(region_min_score=None)`` ships), the scene parser's
+most likely scene, and then :func:`~po3d_ppl.perception.object_parser.add_region_proposals` on the foreground that
+scene leaves unexplained.
 Both sets of proposals are scored against the scene file (for scoring only) by :mod:`po3d_ppl.evaluation.objects`:
 precision, recall, recall of objects >= 20% occluded, and what the second search added (matched to an object the
 first reading missed, to one it had, or to none).

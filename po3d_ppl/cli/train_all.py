@@ -322,7 +322,8 @@ def datasets_needed(scale: Scale, stages: list[str]) -> list[DatasetSpec]:
     names = set()
     for stage in stages:
         names |= set(scale.train_sets.get(stage, ()))
-        if stage in ("calibration", "projection", "answer_calibration") or (scale.evaluate and stage in ("perception", "centres", "attributes", "viewpoint")):
+        measured = scale.evaluate and stage in ("perception", "centres", "attributes", "viewpoint")
+        if stage in ("calibration", "projection", "answer_calibration") or measured:
             names.add(scale.val)
     return [d for d in scale.datasets if d.name in names]
 

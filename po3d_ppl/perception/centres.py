@@ -172,13 +172,16 @@ def load_centre_net(directory: Path | str | None = None, device: torch.device | 
 
 
 def features_sha256(directory: Path | None = None) -> str:
-    """The manifest's sha256 of the feature model's weights."""
-    from po3d_ppl.model_store import model_files, sha256_file
+    """The sha256 the manifest records for the feature model's weights (loading them checks the file against it,
+    so it is not hashed again here)."""
+    from po3d_ppl.model_store import read_manifest
 
-    files = [p for p in model_files(FEATURES_MODEL, directory).values() if p.suffix == ".safetensors"]
-    if len(files) != 1:
-        raise ModelFileError(f"model {FEATURES_MODEL!r} should have one safetensors file, found {len(files)}")
-    return sha256_file(files[0])
+    files = read_manifest(directory).get(FEATURES_MODEL, {}).get("files", {})
+    shas = [meta.get("sha256") for name, meta in files.items() if name.endswith(".safetensors")]
+    if len(shas) != 1 or not isinstance(shas[0], str):
+        raise ModelFileError(f"model {FEATURES_MODEL!r} should have one safetensors file in the manifest, found "
+                             f"{len(shas)}; {RETRAIN}")
+    return shas[0]
 
 
 def check_features(trained_on: str, directory: Path | None, path: Path) -> None:

@@ -1133,8 +1133,6 @@ class ObjectSearch:
     timings: dict[str, float] = field(default_factory=dict)
     #: how many of ``located`` (the last ones) came from unexplained foreground (:func:`add_region_proposals`)
     from_regions: int = 0
-    #: how many of ``located`` came from the centre head's peaks (:func:`add_centre_proposals`)
-    from_centres: int = 0
 
 
 def search_objects(image, model: FeatureModel | None = None, config: ParserConfig | None = None,
@@ -1183,11 +1181,10 @@ def search_objects(image, model: FeatureModel | None = None, config: ParserConfi
         accepted, new_scores = merge_fragments(accepted, new_scores, features, clutter, meshes, evidence, size_hw,
                                                templates, camera, config, chroma, colour_fg,
                                                rows_of(peak_maps, hyps, accepted))
-    from_centres = 0
     if centres is not None:
         peaks = centre_peaks(centres.heatmap(features), config.centre_threshold)
-        accepted, new_scores, from_centres = add_centre_proposals(accepted, new_scores, peaks, scores, grid, camera,
-                                                                  config, calibration)
+        accepted, new_scores, _ = add_centre_proposals(accepted, new_scores, peaks, scores, grid, camera, config,
+                                                       calibration)
     t3 = time.perf_counter()
     timings["nms"] = t3 - t2
     found = camera
@@ -1199,7 +1196,7 @@ def search_objects(image, model: FeatureModel | None = None, config: ParserConfi
     timings["refine"] = time.perf_counter() - t4
     return ObjectSearch(img, config, calibration, features, clutter, meshes, evidence, size_hw, templates, grid,
                         scores, found, camera, hyps, peak_maps, located, new_scores, tables, foreground, chroma,
-                        timings, from_centres=from_centres)
+                        timings)
 
 
 def record_objects(search: ObjectSearch) -> ObjectProposals:

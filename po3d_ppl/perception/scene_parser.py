@@ -224,9 +224,9 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
     ``viewpoint`` (optional) sharpens the pose table with a whole-object azimuth reading before the parts are
     projected (:mod:`po3d_ppl.perception.viewpoint`); ``projection_calibration`` rescales the projected tables
     (:mod:`po3d_ppl.perception.projection_calibration`). ``object_model``, ``parser_config``,
-    ``object_calibration``, ``background`` and ``centres`` go to the object parser (default: the shipped ones). The scene is
-    read once from the object parser's proposals (:func:`read_scene`) and, where that reading leaves foreground
-    unexplained and a second search adds proposals there
+    ``object_calibration``, ``background`` and ``centres`` go to the object parser (default: the shipped ones).
+    The scene is read once from the object parser's proposals (:func:`read_scene`) and, where that reading leaves
+    foreground unexplained and a second search adds proposals there
     (:func:`~po3d_ppl.perception.object_parser.add_region_proposals`), once more with them."""
     config = config or SceneParserConfig()
     start = time.perf_counter()
@@ -615,7 +615,8 @@ class ImageParser:
 
         return cls(load_feature_model(models_dir, device), attributes, config or SceneParserConfig(), viewpoint,
                    load_projection_calibration(models_dir) if calibrated_projection else None,
-                   load_calibration(models_dir), load_background(models_dir), centres=load_centre_net(models_dir, device))
+                   load_calibration(models_dir), load_background(models_dir),
+                   centres=load_centre_net(models_dir, device))
 
     def scene_priors(self, priors: ScenePriors) -> ScenePriors:
         """The scene model's priors for this parser's proposals: ``priors`` (the world's) with the projected

@@ -46,6 +46,7 @@ import torch.nn.functional as F
 
 from po3d_ppl import ontology
 from po3d_ppl.errors import InputError
+from po3d_ppl.model_store import sha256_file
 from po3d_ppl.perception.attributes import (
     DENSE_MIRROR,
     OBJECT_HEADS,
@@ -250,12 +251,9 @@ def split_indices(data: Path | str, splits: Sequence[str]) -> list[int]:
 
 def _cache_path(root: Path, split: str, config: AttributeConfig, min_part_pixels: int, cache: Path | None,
                 jitter: ProjectionJitter | None = None) -> Path:
-    digest = hashlib.sha256()
-    with open(root / "scenes.json", "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            digest.update(chunk)
+    scenes = sha256_file(root / "scenes.json")
     geometry = {k: v for k, v in config.to_dict().items() if not k.endswith("widths") and k != "hidden"}
-    identity = [CACHE_FORMAT, digest.hexdigest(), geometry, min_part_pixels]
+    identity = [CACHE_FORMAT, scenes, geometry, min_part_pixels]
     if jitter is not None:  # the truth's crops keep their old key
         identity.append(asdict(jitter))
     key = hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()[:16]

@@ -23,6 +23,7 @@ import numpy as np
 import torch
 
 from po3d_ppl.errors import InputError
+from po3d_ppl.model_store import sha256_file
 from po3d_ppl.perception.centres import CentreConfig, CentreNet, centre_peaks, features_sha256
 from po3d_ppl.perception.features import STRIDE
 
@@ -54,11 +55,8 @@ class CentreData:
 
 
 def _cache_path(root: Path, indices: Sequence[int], sha: str) -> Path:
-    digest = hashlib.sha256()
-    with open(root / "scenes.json", "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            digest.update(chunk)
-    key = hashlib.sha256(json.dumps([CACHE_FORMAT, digest.hexdigest(), sha, list(indices)]).encode()).hexdigest()
+    scenes = sha256_file(root / "scenes.json")
+    key = hashlib.sha256(json.dumps([CACHE_FORMAT, scenes, sha, list(indices)]).encode()).hexdigest()
     return root.resolve().parent / "centre_features" / f"{root.resolve().name}-{key[:16]}.safetensors"
 
 
@@ -228,7 +226,7 @@ def measure(net: CentreNet, data: CentreData, thresholds: Sequence[float] = (0.2
         hits = {"all": [0, 0], "occluded": [0, 0]}
         for image, base_x, base_y, visible, occluded, box_w, box_h, _ in data.objects.tolist():
             p = peaks[int(image)]
-            radius = STRIDE * max(2.0, 0.15 * math.sqrt(max(box_w * box_h, 1.0)) / STRIDE)
+            radius = max(2.0 * STRIDE, 0.15 * math.sqrt(max(box_w * box_h, 1.0)))
             near = torch.hypot(p.pixels[:, 0] - base_x, p.pixels[:, 1] - base_y) <= radius if len(p) else \
                 torch.zeros(0, dtype=torch.bool)
             explained[int(image)] |= near
