@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import shutil
 
 import pytest
@@ -116,3 +117,17 @@ def test_the_saved_head_loads_only_beside_the_features_it_was_trained_on(tmp_pat
     (tmp_path / "centres.safetensors").write_bytes(b"corrupt")
     with pytest.raises(ModelFileError, match="sha256|bytes"):
         load_centre_net(tmp_path)
+
+
+def test_the_log_prior_reads_the_heatmap_between_cell_centres_with_a_floor():
+    """log_centre_prior: at a cell centre the log of that cell, halfway between two cells the log of their mean
+    (bilinear), and never below log(floor)."""
+    from po3d_ppl.perception.centres import log_centre_prior
+
+    heat = torch.zeros(3, 4)
+    heat[1, 1], heat[1, 2] = 0.8, 0.4
+    pixels = torch.tensor([[12.0, 12.0], [16.0, 12.0], [28.0, 4.0]])  # cell (1, 1); between (1, 1) and (1, 2); far
+    got = log_centre_prior(heat, pixels, floor=1e-3)
+    assert got[0] == pytest.approx(math.log(0.8), abs=1e-5)
+    assert got[1] == pytest.approx(math.log(0.6), abs=1e-5)
+    assert got[2] == pytest.approx(math.log(1e-3), abs=1e-5)

@@ -390,3 +390,32 @@ def test_a_centre_peak_where_no_proposal_stands_adds_one_there_and_only_there(th
     assert add_centre_proposals(kept, [50.0] * 2, weak, search.scores, grid, camera, config, calibration)[2] == 0
     off = replace(config, centre_threshold=None)
     assert add_centre_proposals(kept, [50.0] * 2, peaks, search.scores, grid, camera, off, calibration)[2] == 0
+
+
+def test_the_centre_heatmap_brings_a_misplaced_proposal_back_to_its_object(three_apart):
+    """relocate: a proposal moved 1.2 units off its object stays off it without the centre head (its local points
+    reach 12 px), and returns to the object, with its category, when the heatmap peaks at the object's base centre
+    (the peak's points are searched and the log heatmap is a position prior)."""
+    from dataclasses import replace
+
+    from po3d_ppl.perception.image_input import project_points
+    from po3d_ppl.perception.object_parser import relocate
+
+    _, search = three_apart
+    config = replace(search.config, centre_threshold=0.3, centre_reach_px=80.0, centre_weight=5.0)
+    true = search.located[1]
+    off = replace(true, x=true.x + 1.0, y=true.y - 0.6)
+    h, w = search.features.shape[1:]
+    base = project_points(search.camera, np.array([true.x, true.y, 0.0]))[:2]
+    rows, cols = torch.meshgrid(torch.arange(h) * 8.0 + 4.0, torch.arange(w) * 8.0 + 4.0, indexing="ij")
+    heatmap = torch.exp(-((cols - base[0]) ** 2 + (rows - base[1]) ** 2) / (2 * 12.0**2))
+    args = (search.evidence, search.feature_size, search.templates, search.camera, search.camera, config,
+            search.scores, search.grid)
+    (stays,), _ = relocate([off], *args)
+    (back,), (tables,) = relocate([off], *args, heatmap)
+    assert np.hypot(stays.x - true.x, stays.y - true.y) > 0.4
+    assert np.hypot(back.x - true.x, back.y - true.y) < 0.4, (back, true, stays)
+    assert back.category == true.category and torch.isfinite(tables[0]).all()
+    (kept,), _ = relocate([off], *args[:5], replace(config, centre_reach_px=0.0, centre_weight=0.0), *args[6:],
+                          heatmap)
+    assert (kept.x, kept.y) == (stays.x, stays.y)  # the prior off: as without the head

@@ -134,6 +134,17 @@ def centre_peaks(heatmap: torch.Tensor, threshold: float) -> CentrePeaks:
     return CentrePeaks(pixels.reshape(-1, 2), probs[order])
 
 
+def log_centre_prior(heatmap: torch.Tensor, pixels: torch.Tensor, floor: float = 1e-3) -> torch.Tensor:
+    """[M] log of ``heatmap`` [h, w] (bilinear between cell centres, at least ``floor``) at image ``pixels`` [M, 2]:
+    the centre head's belief that an object's base centre stands there, a prior on the position of a proposal."""
+    heat = heatmap.detach().float().cpu()
+    h, w = heat.shape
+    cells = (pixels.float() - STRIDE / 2) / STRIDE
+    grid = torch.stack([cells[:, 0] / max(w - 1, 1), cells[:, 1] / max(h - 1, 1)], -1) * 2 - 1
+    sampled = F.grid_sample(heat[None, None], grid[None, None], align_corners=True, padding_mode="border")
+    return sampled.reshape(-1).clamp_min(floor).log()
+
+
 # --- files -----------------------------------------------------------------------------------------------------------
 
 

@@ -38,6 +38,9 @@
    all proposals at once maximise the rasterised render-and-compare score on their unoccluded cells (the hard
    z-buffer gives gradients through the feature interpolation only; each keeps its best iterate); a move that
    makes two footprints intersect is undone (:func:`keep_apart`; the table's figures are the same with it).
+   Optionally (off by default, ``centre_reach_px``, ``centre_weight``), the re-search also tries the points
+   around the nearest centre peak (with the proposal's category) and ranks positions by score plus a weighted log
+   heatmap: a proposal the 3D-NMS left off its object moves back (``docs/perception.md`` has the figures).
 5. *Record*: tables are log-sum-exps of the scores over the other pose parameters (sizes, and positions within
    ``table_radius`` of the proposal), never argmaxes; ownership, masks and boxes come from a stride-2 z-buffer
    of the accepted meshes' solid pixels, cut to the background model's foreground (or where the cell evidence
@@ -83,7 +86,7 @@ from po3d_ppl import ontology
 from po3d_ppl.errors import InputError
 from po3d_ppl.perception.background import BackgroundModel, load_background
 from po3d_ppl.perception.calibration import TableCalibration, load_calibration
-from po3d_ppl.perception.centres import CentreNet, CentrePeaks, centre_peaks, load_centre_net
+from po3d_ppl.perception.centres import CentreNet, CentrePeaks, centre_peaks, load_centre_net, log_centre_prior
 from po3d_ppl.perception.features import STRIDE, extract_features
 from po3d_ppl.perception.image_input import CameraPrior, ImageInput, backproject_to_plane, load_image, project_points
 from po3d_ppl.perception.neural_mesh import FeatureModel, NeuralMeshes, load_feature_model
@@ -213,6 +216,12 @@ class ParserConfig:
     #: images of seed 712: 14 of its 20 centre proposals matched an object, with no trend in p over the threshold,
     #: so a constant, logit(0.7).
     centre_existence: tuple[float, float] = (0.0, 0.85)
+    #: The local re-search (:func:`relocate`) also tries the points around the centre peak nearest a proposal
+    #: within ``centre_reach_px`` (when that proposal is the peak's nearest too), and ranks positions by score plus
+    #: ``centre_weight`` times the log heatmap (0, 0: off). Measured with 48 px and 5 (``docs/perception.md``):
+    #: part-occlusion F1 up on seeds 712 and 716, precision down; not yet adopted.
+    centre_reach_px: float = 0.0
+    centre_weight: float = 0.0
 
     def __post_init__(self) -> None:
         if not (isinstance(self.azimuth_bins, int) and self.azimuth_bins >= 12):
@@ -846,6 +855,27 @@ def _local_pixels(hyps: list[Hypothesis], camera: Camera, config: ParserConfig) 
     return pix, owner
 
 
+def _peak_pixels(hyps: list[Hypothesis], camera: Camera, heatmap: torch.Tensor, config: ParserConfig
+                 ) -> tuple[torch.Tensor, torch.Tensor]:
+    """Image points around each centre-head peak within ``centre_reach_px`` of a proposal's base centre ([M, 2]),
+    each owned by the proposal nearest its peak when that peak is also the proposal's nearest ([M]): a proposal
+    located off its object can move there, but not onto a neighbour's peak."""
+    peaks = centre_peaks(heatmap, config.centre_threshold or 0.0)
+    if len(peaks) == 0:
+        return torch.zeros(0, 2, dtype=torch.float64), torch.zeros(0, dtype=torch.long)
+    bases = project_points(camera, torch.tensor([[h.x, h.y, 0.0] for h in hyps], dtype=torch.float64))[:, :2]
+    distance = torch.cdist(peaks.pixels.double(), bases)
+    nearest = distance.min(1)
+    mutual = distance.argmin(0)[nearest.indices] == torch.arange(len(peaks))
+    reach = (nearest.values <= config.centre_reach_px) & mutual
+    r = config.local_radius_px
+    d = torch.arange(-r, r + 1e-6, config.local_step_px, dtype=torch.float64)
+    dy, dx = torch.meshgrid(d, d, indexing="ij")
+    offs = torch.stack([dx.reshape(-1), dy.reshape(-1)], -1)
+    pix = (peaks.pixels[reach].double()[:, None] + offs[None]).reshape(-1, 2)
+    return pix, nearest.indices[reach].repeat_interleave(len(offs))
+
+
 def estimate_camera(hyps: list[Hypothesis], evidence: list[torch.Tensor], feature_size: tuple[int, int],
                     templates: Templates, prior: CameraPrior, config: ParserConfig) -> Camera:
     """The camera-prior candidate (a grid over the jitter box) under which the accepted objects fit best: the sum
@@ -871,7 +901,7 @@ def estimate_camera(hyps: list[Hypothesis], evidence: list[torch.Tensor], featur
 
 def relocate(hyps: list[Hypothesis], evidence: list[torch.Tensor], feature_size: tuple[int, int],
              templates: Templates, camera: Camera, found_with: Camera, config: ParserConfig,
-             coarse: torch.Tensor, coarse_grid: Grid
+             coarse: torch.Tensor, coarse_grid: Grid, heatmap: torch.Tensor | None = None
              ) -> tuple[list[Hypothesis], list[tuple[torch.Tensor, torch.Tensor, torch.Tensor]]]:
     """Under ``camera``: each proposal's best local hypothesis (finer positions than the coarse grid) and its
     tables (category [5], pose [5, A], size [2]): log-sum-exps over positions within ``table_radius`` of it. A
@@ -880,9 +910,24 @@ def relocate(hyps: list[Hypothesis], evidence: list[torch.Tensor], feature_size:
     if not hyps:
         return [], []
     pix, owner = _local_pixels(hyps, found_with, config)
+    at_peak = torch.zeros(len(owner), dtype=torch.bool)
+    if heatmap is not None and config.centre_reach_px > 0:
+        peak_pix, peak_owner = _peak_pixels(hyps, found_with, heatmap, config)
+        pix, owner = torch.cat([pix, peak_pix]), torch.cat([owner, peak_owner])
+        at_peak = torch.cat([at_peak, torch.ones(len(peak_owner), dtype=torch.bool)])
     grid, ok = grid_at_pixels(camera, pix, templates, config.ground_extent + 1.0)
-    owner = owner[ok]
+    owner, at_peak = owner[ok], at_peak[ok]
     scores = coarse_scores(evidence, feature_size, grid, templates)
+    choice = scores
+    if at_peak.any():  # a proposal moves to a peak with its own category (a larger mesh there takes neighbours' cells)
+        own_category = torch.tensor([h.category for h in hyps])[owner[at_peak]]
+        other = torch.arange(scores.shape[1])[None] != own_category[:, None]
+        choice = scores.clone()
+        rows = choice[at_peak]
+        rows[other] = -float("inf")
+        choice[at_peak] = rows
+    prior = (config.centre_weight * log_centre_prior(heatmap, grid.pixel)
+             if heatmap is not None and config.centre_weight > 0 else torch.zeros(len(owner)))
     out, tables = [], []
     for i, h in enumerate(hyps):
         idx = torch.nonzero(owner == i).reshape(-1)
@@ -890,13 +935,14 @@ def relocate(hyps: list[Hypothesis], evidence: list[torch.Tensor], feature_size:
             out.append(h)
             tables.append(_tables(coarse, coarse_grid, h, config))
             continue
-        local = scores[idx]
-        flat = int(local.flatten().argmax())
-        p, c, s_, a = np.unravel_index(flat, local.shape)
+        local = choice[idx]
+        best_of = local.flatten(1).max(1)
+        p = int((best_of.values + prior[idx].to(local.dtype)).argmax())
+        c, s_, a = np.unravel_index(int(best_of.indices[p]), local.shape[1:])
         q = int(idx[p])
         x, y = (float(v) for v in grid.ground[q, :2])
         rotation = yaw_of(camera, x, y, float(config.azimuths[a]))
-        new = Hypothesis(q, int(c), int(s_), int(a), x, y, rotation, float(grid.depth[q]), float(local.max()))
+        new = Hypothesis(q, int(c), int(s_), int(a), x, y, rotation, float(grid.depth[q]), float(best_of.values[p]))
         near = idx[torch.linalg.norm(grid.ground[idx, :2] - grid.ground[q, :2], dim=-1) <= config.table_radius]
         out.append(new)
         tables.append(_tables_of(scores[near].double()))
@@ -1130,6 +1176,8 @@ class ObjectSearch:
     tables: list
     foreground: np.ndarray | None
     chroma: torch.Tensor
+    #: the centre head's heatmap [h, w] (None without the head)
+    heatmap: torch.Tensor | None = None
     timings: dict[str, float] = field(default_factory=dict)
     #: how many of ``located`` (the last ones) came from unexplained foreground (:func:`add_region_proposals`)
     from_regions: int = 0
@@ -1181,22 +1229,23 @@ def search_objects(image, model: FeatureModel | None = None, config: ParserConfi
         accepted, new_scores = merge_fragments(accepted, new_scores, features, clutter, meshes, evidence, size_hw,
                                                templates, camera, config, chroma, colour_fg,
                                                rows_of(peak_maps, hyps, accepted))
-    if centres is not None:
-        peaks = centre_peaks(centres.heatmap(features), config.centre_threshold)
+    heatmap = centres.heatmap(features).detach().cpu() if centres is not None else None
+    if heatmap is not None:
+        peaks = centre_peaks(heatmap, config.centre_threshold)
         accepted, new_scores, _ = add_centre_proposals(accepted, new_scores, peaks, scores, grid, camera, config,
                                                        calibration)
     t3 = time.perf_counter()
     timings["nms"] = t3 - t2
     found = camera
     camera = estimate_camera(accepted, evidence, size_hw, templates, prior, config)
-    located, tables = relocate(accepted, evidence, size_hw, templates, camera, found, config, scores, grid)
+    located, tables = relocate(accepted, evidence, size_hw, templates, camera, found, config, scores, grid, heatmap)
     t4 = time.perf_counter()
     timings["camera+relocate"] = t4 - t3
     located = keep_apart(refine(located, features, clutter, meshes, camera, config), accepted, config)
     timings["refine"] = time.perf_counter() - t4
     return ObjectSearch(img, config, calibration, features, clutter, meshes, evidence, size_hw, templates, grid,
                         scores, found, camera, hyps, peak_maps, located, new_scores, tables, foreground, chroma,
-                        timings)
+                        heatmap, timings)
 
 
 def record_objects(search: ObjectSearch) -> ObjectProposals:
@@ -1330,7 +1379,7 @@ def add_region_proposals(search: ObjectSearch, explained: np.ndarray | None) -> 
     if not picked:
         return None
     moved, tables = relocate(picked, search.evidence, search.feature_size, search.templates, search.camera,
-                             search.found_with, config, search.scores, search.grid)
+                             search.found_with, config, search.scores, search.grid, search.heatmap)
     kept = list(search.located)
     for i, hyp in enumerate(moved):
         if any(footprints_overlap(hyp, other, config.footprint_shrink) for other in kept):  # undo the move
