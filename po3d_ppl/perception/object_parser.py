@@ -843,12 +843,17 @@ def _distinct_colours(a: torch.Tensor, b: torch.Tensor, config: ParserConfig) ->
 # --- camera and position: local search around the accepted proposals ----------------------------------------------
 
 
-def _local_pixels(hyps: list[Hypothesis], camera: Camera, config: ParserConfig) -> tuple[torch.Tensor, torch.Tensor]:
-    """Image points around each proposal's projected base centre ([M, 2]) and the proposal of each ([M])."""
+def _window_offsets(config: ParserConfig) -> torch.Tensor:
+    """[M, 2] pixel offsets every ``local_step_px`` within ``local_radius_px`` (a square window)."""
     r = config.local_radius_px
     d = torch.arange(-r, r + 1e-6, config.local_step_px, dtype=torch.float64)
     dy, dx = torch.meshgrid(d, d, indexing="ij")
-    offs = torch.stack([dx.reshape(-1), dy.reshape(-1)], -1)
+    return torch.stack([dx.reshape(-1), dy.reshape(-1)], -1)
+
+
+def _local_pixels(hyps: list[Hypothesis], camera: Camera, config: ParserConfig) -> tuple[torch.Tensor, torch.Tensor]:
+    """Image points around each proposal's projected base centre ([M, 2]) and the proposal of each ([M])."""
+    offs = _window_offsets(config)
     centres = project_points(camera, torch.tensor([[h.x, h.y, 0.0] for h in hyps], dtype=torch.float64))[:, :2]
     pix = (centres[:, None] + offs[None]).reshape(-1, 2)
     owner = torch.arange(len(hyps)).repeat_interleave(len(offs))
@@ -868,10 +873,7 @@ def _peak_pixels(hyps: list[Hypothesis], camera: Camera, heatmap: torch.Tensor, 
     nearest = distance.min(1)
     mutual = distance.argmin(0)[nearest.indices] == torch.arange(len(peaks))
     reach = (nearest.values <= config.centre_reach_px) & mutual
-    r = config.local_radius_px
-    d = torch.arange(-r, r + 1e-6, config.local_step_px, dtype=torch.float64)
-    dy, dx = torch.meshgrid(d, d, indexing="ij")
-    offs = torch.stack([dx.reshape(-1), dy.reshape(-1)], -1)
+    offs = _window_offsets(config)
     pix = (peaks.pixels[reach].double()[:, None] + offs[None]).reshape(-1, 2)
     return pix, nearest.indices[reach].repeat_interleave(len(offs))
 
