@@ -105,8 +105,9 @@ class SimulatedBackend:
 #: occluded objects added (``ParserConfig.contest_margin``). 5: masks split between touching proposals by colour
 #: (``ParserConfig.colour_margin``). 6: a second search on the foreground the first reading leaves unexplained
 #: (``ParserConfig.region_min_score``). 7: part looks read under the most likely pose only
-#: (``SceneParserConfig.style_pose_hypotheses``). 8: centre proposals (``ParserConfig.centre_threshold``).
-EVIDENCE_VERSION = 8
+#: (``SceneParserConfig.style_pose_hypotheses``). 8: centre proposals (``ParserConfig.centre_threshold``). 9: the
+#: centre heatmap as a position prior in the local re-search (``ParserConfig.centre_weight``).
+EVIDENCE_VERSION = 9
 
 
 @dataclass(frozen=True)
