@@ -219,7 +219,7 @@ class ParserConfig:
     #: The local re-search (:func:`relocate`) also tries the points around the centre peak nearest a proposal
     #: within ``centre_reach_px`` (when that proposal is the peak's nearest too), and ranks positions by score plus
     #: ``centre_weight`` times the log heatmap (0, 0: off). Chosen on seed 712; on 716 answers from the image
-    #: 85.66 -> 86.26%, part-occlusion F1 0.689 -> 0.712 (``docs/perception.md``).
+    #: 85.66 -> 86.26%, on held-out 720 84.46 -> 84.53% with precision 0.938 -> 0.947 (``docs/perception.md``).
     centre_reach_px: float = 48.0
     centre_weight: float = 5.0
 
