@@ -398,6 +398,7 @@ def test_the_centre_heatmap_brings_a_misplaced_proposal_back_to_its_object(three
     (the peak's points are searched and the log heatmap is a position prior)."""
     from dataclasses import replace
 
+    from po3d_ppl.perception.centres import centre_peaks
     from po3d_ppl.perception.image_input import project_points
     from po3d_ppl.perception.object_parser import relocate
 
@@ -412,10 +413,11 @@ def test_the_centre_heatmap_brings_a_misplaced_proposal_back_to_its_object(three
     args = (search.evidence, search.feature_size, search.templates, search.camera, search.camera, config,
             search.scores, search.grid)
     (stays,), _ = relocate([off], *args)
-    (back,), (tables,) = relocate([off], *args, heatmap)
+    peaks = centre_peaks(heatmap, config.centre_threshold)
+    (back,), (tables,) = relocate([off], *args, heatmap, peaks)
     assert np.hypot(stays.x - true.x, stays.y - true.y) > 0.4
     assert np.hypot(back.x - true.x, back.y - true.y) < 0.4, (back, true, stays)
     assert back.category == true.category and torch.isfinite(tables[0]).all()
     (kept,), _ = relocate([off], *args[:5], replace(config, centre_reach_px=0.0, centre_weight=0.0), *args[6:],
-                          heatmap)
+                          heatmap, peaks)
     assert (kept.x, kept.y) == (stays.x, stays.y)  # the prior off: as without the head

@@ -860,12 +860,11 @@ def _local_pixels(hyps: list[Hypothesis], camera: Camera, config: ParserConfig) 
     return pix, owner
 
 
-def _peak_pixels(hyps: list[Hypothesis], camera: Camera, heatmap: torch.Tensor, config: ParserConfig
+def _peak_pixels(hyps: list[Hypothesis], camera: Camera, peaks: CentrePeaks, config: ParserConfig
                  ) -> tuple[torch.Tensor, torch.Tensor]:
     """Image points around each centre-head peak within ``centre_reach_px`` of a proposal's base centre ([M, 2]),
     each owned by the proposal nearest its peak when that peak is also the proposal's nearest ([M]): a proposal
     located off its object can move there, but not onto a neighbour's peak."""
-    peaks = centre_peaks(heatmap, config.centre_threshold or 0.0)
     if len(peaks) == 0:
         return torch.zeros(0, 2, dtype=torch.float64), torch.zeros(0, dtype=torch.long)
     bases = project_points(camera, torch.tensor([[h.x, h.y, 0.0] for h in hyps], dtype=torch.float64))[:, :2]
@@ -903,18 +902,21 @@ def estimate_camera(hyps: list[Hypothesis], evidence: list[torch.Tensor], featur
 
 def relocate(hyps: list[Hypothesis], evidence: list[torch.Tensor], feature_size: tuple[int, int],
              templates: Templates, camera: Camera, found_with: Camera, config: ParserConfig,
-             coarse: torch.Tensor, coarse_grid: Grid, heatmap: torch.Tensor | None = None
+             coarse: torch.Tensor, coarse_grid: Grid, heatmap: torch.Tensor | None = None,
+             peaks: CentrePeaks | None = None
              ) -> tuple[list[Hypothesis], list[tuple[torch.Tensor, torch.Tensor, torch.Tensor]]]:
     """Under ``camera``: each proposal's best local hypothesis (finer positions than the coarse grid) and its
     tables (category [5], pose [5, A], size [2]): log-sum-exps over positions within ``table_radius`` of it. A
     proposal with no local position in the search extent keeps its pose and takes its tables from the coarse
-    search's scores ``coarse`` over ``coarse_grid`` (:func:`_tables`)."""
+    search's scores ``coarse`` over ``coarse_grid`` (:func:`_tables`). With the centre head's ``heatmap`` and its
+    ``peaks`` (``ParserConfig.centre_reach_px``, ``centre_weight``) the peaks' points are searched too and the log
+    heatmap is a position prior."""
     if not hyps:
         return [], []
     pix, owner = _local_pixels(hyps, found_with, config)
     at_peak = torch.zeros(len(owner), dtype=torch.bool)
-    if heatmap is not None and config.centre_reach_px > 0:
-        peak_pix, peak_owner = _peak_pixels(hyps, found_with, heatmap, config)
+    if peaks is not None and config.centre_reach_px > 0:
+        peak_pix, peak_owner = _peak_pixels(hyps, found_with, peaks, config)
         pix, owner = torch.cat([pix, peak_pix]), torch.cat([owner, peak_owner])
         at_peak = torch.cat([at_peak, torch.ones(len(peak_owner), dtype=torch.bool)])
     grid, ok = grid_at_pixels(camera, pix, templates, config.ground_extent + 1.0)
@@ -1180,6 +1182,8 @@ class ObjectSearch:
     chroma: torch.Tensor
     #: the centre head's heatmap [h, w] (None without the head)
     heatmap: torch.Tensor | None = None
+    #: its peaks over ``centre_threshold`` (None without the head)
+    centre_peaks: CentrePeaks | None = None
     timings: dict[str, float] = field(default_factory=dict)
     #: how many of ``located`` (the last ones) came from unexplained foreground (:func:`add_region_proposals`)
     from_regions: int = 0
@@ -1232,22 +1236,23 @@ def search_objects(image, model: FeatureModel | None = None, config: ParserConfi
                                                templates, camera, config, chroma, colour_fg,
                                                rows_of(peak_maps, hyps, accepted))
     heatmap = centres.heatmap(features).detach().cpu() if centres is not None else None
-    if heatmap is not None:
-        peaks = centre_peaks(heatmap, config.centre_threshold)
-        accepted, new_scores, _ = add_centre_proposals(accepted, new_scores, peaks, scores, grid, camera, config,
-                                                       calibration)
+    heat_peaks = centre_peaks(heatmap, config.centre_threshold) if heatmap is not None else None
+    if heat_peaks is not None:
+        accepted, new_scores, _ = add_centre_proposals(accepted, new_scores, heat_peaks, scores, grid, camera,
+                                                       config, calibration)
     t3 = time.perf_counter()
     timings["nms"] = t3 - t2
     found = camera
     camera = estimate_camera(accepted, evidence, size_hw, templates, prior, config)
-    located, tables = relocate(accepted, evidence, size_hw, templates, camera, found, config, scores, grid, heatmap)
+    located, tables = relocate(accepted, evidence, size_hw, templates, camera, found, config, scores, grid, heatmap,
+                               heat_peaks)
     t4 = time.perf_counter()
     timings["camera+relocate"] = t4 - t3
     located = keep_apart(refine(located, features, clutter, meshes, camera, config), accepted, config)
     timings["refine"] = time.perf_counter() - t4
     return ObjectSearch(img, config, calibration, features, clutter, meshes, evidence, size_hw, templates, grid,
                         scores, found, camera, hyps, peak_maps, located, new_scores, tables, foreground, chroma,
-                        heatmap, timings)
+                        heatmap, heat_peaks, timings)
 
 
 def record_objects(search: ObjectSearch) -> ObjectProposals:
@@ -1381,7 +1386,8 @@ def add_region_proposals(search: ObjectSearch, explained: np.ndarray | None) -> 
     if not picked:
         return None
     moved, tables = relocate(picked, search.evidence, search.feature_size, search.templates, search.camera,
-                             search.found_with, config, search.scores, search.grid, search.heatmap)
+                             search.found_with, config, search.scores, search.grid, search.heatmap,
+                             search.centre_peaks)
     kept = list(search.located)
     for i, hyp in enumerate(moved):
         if any(footprints_overlap(hyp, other, config.footprint_shrink) for other in kept):  # undo the move
