@@ -188,6 +188,32 @@ def test_an_object_proposed_as_two_fragments_is_merged():
     assert kept == fragments
 
 
+def test_a_named_region_is_fitted_by_its_category_and_kept_clear_of_standing_footprints(one_object):
+    """The second search's fresh look at a named region: over an object's visible pixels, the named category's
+    best-fitting hypothesis stands near the object, its visible silhouette overlaps the region, and it has tables
+    of the contract's shapes; with a proposal standing there, whatever it proposes keeps its footprint clear."""
+    from po3d_ppl.perception.object_parser import _named_region_hypothesis, _region_cells, cell_scores, search_objects
+    from po3d_ppl.world.rle import decode
+
+    obj = one_object.scene.objects[0]
+    search = search_objects(one_object.image)
+    height, width = search.foreground.shape
+    region = decode(obj.annotation.visible_mask, 240, 320)
+    region = np.kron(region, np.ones((height // 240, width // 320), dtype=bool))  # to the parser's working size
+    cells = _region_cells(region, search.feature_size, search.config.region_cell_share)
+    nothing = torch.zeros(search.feature_size, dtype=torch.bool)
+    category = CATEGORIES.index(obj.category)
+    found = _named_region_hypothesis(search, region, cells, category, [], None, nothing)
+    assert found is not None
+    hyp, iou, _, (category_table, pose, size) = found
+    assert hyp.category == category and iou > 0.3
+    assert float(np.hypot(hyp.x - obj.position[0], hyp.y - obj.position[1])) < 0.8
+    assert category_table.shape == (len(CATEGORIES),) and size.shape == (len(SIZES),) and torch.isfinite(pose).all()
+    maps = cell_scores([hyp], search.features, search.clutter, search.meshes, search.camera, search.config)
+    beside = _named_region_hypothesis(search, region, cells, category, [hyp], maps, cells)
+    assert beside is None or not footprints_overlap(beside[0], hyp, search.config.footprint_shrink)
+
+
 def test_fragments_of_different_colours_are_not_merged():
     """The colour gate: two proposals are one object only if their median chromas agree and are not grey."""
     from po3d_ppl.perception.object_parser import _chroma, proposal_chroma, _same_colour

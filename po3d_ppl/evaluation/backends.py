@@ -106,8 +106,9 @@ class SimulatedBackend:
 #: (``ParserConfig.colour_margin``). 6: a second search on the foreground the first reading leaves unexplained
 #: (``ParserConfig.region_min_score``). 7: part looks read under the most likely pose only
 #: (``SceneParserConfig.style_pose_hypotheses``). 8: centre proposals (``ParserConfig.centre_threshold``). 9: the
-#: centre heatmap as a position prior in the local re-search (``ParserConfig.centre_weight``).
-EVIDENCE_VERSION = 9
+#: centre heatmap as a position prior in the local re-search (``ParserConfig.centre_weight``). 10: the second
+#: search names a region whose peak is blocked and fits that category's visible cells (``region_named_iou``).
+EVIDENCE_VERSION = 10
 
 
 @dataclass(frozen=True)

@@ -235,7 +235,13 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
     parsed = read_scene(img, record_objects(search), attributes, viewpoint, projection_calibration, config)
     # second search: foreground the most likely scene leaves unexplained (object_parser.add_region_proposals)
     t0 = time.perf_counter()
-    grown = add_region_proposals(search, parsed.object_ids)
+    def name_regions(masks: torch.Tensor) -> torch.Tensor:
+        """[K, 5] category probabilities of regions [K, H, W] read by the attribute network."""
+        subtype = attributes.object_loglik(img, masks)["subtype"].exp().cpu()
+        return torch.stack([subtype[:, [i for i, s in enumerate(SUBTYPES) if ontology.CATEGORY_OF[s] == c]].sum(-1)
+                            for c in ontology.CATEGORIES], -1)
+
+    grown = add_region_proposals(search, parsed.object_ids, name_regions if attributes is not None else None)
     if grown is not None:
         first = parsed.timings
         parsed = read_scene(img, record_objects(grown), attributes, viewpoint, projection_calibration, config)
