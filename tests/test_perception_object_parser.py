@@ -205,13 +205,13 @@ def test_a_named_region_is_fitted_by_its_category_and_kept_clear_of_standing_foo
     category = CATEGORIES.index(obj.category)
     found = _named_region_hypothesis(search, region, cells, category, [], None, nothing)
     assert found is not None
-    hyp, iou, _, (category_table, pose, size) = found
+    hyp, iou, (category_table, pose, size) = found.hypothesis, found.iou, found.tables
     assert hyp.category == category and iou > 0.3
     assert float(np.hypot(hyp.x - obj.position[0], hyp.y - obj.position[1])) < 0.8
     assert category_table.shape == (len(CATEGORIES),) and size.shape == (len(SIZES),) and torch.isfinite(pose).all()
     maps = cell_scores([hyp], search.features, search.clutter, search.meshes, search.camera, search.config)
     beside = _named_region_hypothesis(search, region, cells, category, [hyp], maps, cells)
-    assert beside is None or not footprints_overlap(beside[0], hyp, search.config.footprint_shrink)
+    assert beside is None or not footprints_overlap(beside.hypothesis, hyp, search.config.footprint_shrink)
 
 
 def test_fragments_of_different_colours_are_not_merged():

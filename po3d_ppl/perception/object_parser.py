@@ -511,16 +511,22 @@ class Hypothesis:
     score: float
 
 
+def _hypothesis_at(grid: Grid, p: int, category: int, size: int, azimuth: int, score: float, camera: Camera,
+                   config: ParserConfig, position: int = -1) -> Hypothesis:
+    """The (category, size, azimuth bin) hypothesis standing at ``grid`` position ``p``; its world yaw is the
+    azimuth as seen from there. ``position``: the index it records (-1: not a coarse-grid peak)."""
+    x, y = (float(v) for v in grid.ground[p, :2])
+    return Hypothesis(position, int(category), int(size), int(azimuth), x, y,
+                      yaw_of(camera, x, y, float(config.azimuths[azimuth])), float(grid.depth[p]), float(score))
+
+
 def _best_hypotheses(scores: torch.Tensor, peaks: list[int], grid: Grid, camera: Camera, config: ParserConfig
                      ) -> list[Hypothesis]:
     out = []
     for p in peaks:
         flat = int(scores[p].flatten().argmax())
         c, s, a = np.unravel_index(flat, scores.shape[1:])
-        x, y = (float(v) for v in grid.ground[p, :2])
-        rotation = yaw_of(camera, x, y, float(config.azimuths[a]))
-        out.append(Hypothesis(p, int(c), int(s), int(a), x, y, rotation, float(grid.depth[p]),
-                              float(scores[p].flatten()[flat])))
+        out.append(_hypothesis_at(grid, p, c, s, a, float(scores[p].flatten()[flat]), camera, config, position=p))
     return out
 
 
@@ -705,9 +711,7 @@ def _merge_candidates(a: Hypothesis, b: Hypothesis, evidence: list[torch.Tensor]
     out = []
     for idx in sorted(picks, key=lambda i: -float(flat[i])):
         p, c, s_, az = np.unravel_index(idx, scores.shape)
-        x, y = (float(v) for v in grid.ground[p, :2])
-        out.append(Hypothesis(-1, int(c), int(s_), int(az), x, y, yaw_of(camera, x, y, float(config.azimuths[az])),
-                              float(grid.depth[p]), float(flat[idx])))
+        out.append(_hypothesis_at(grid, int(p), c, s_, az, float(flat[idx]), camera, config))
     return out
 
 
@@ -1352,14 +1356,27 @@ def _region_cells(region: np.ndarray, feature_size: tuple[int, int], share: floa
     return cells
 
 
+@dataclass
+class RegionFit:
+    """The best hypothesis of a named region (:func:`_named_region_hypothesis`): the IoU of its visible cells with
+    the region's, its score over the region's cells, its tables, and its cell maps (rendered once)."""
+
+    hypothesis: Hypothesis
+    iou: float
+    score: float
+    tables: tuple[torch.Tensor, torch.Tensor, torch.Tensor]
+    maps: CellMaps
+
+
 def _named_region_hypothesis(search: ObjectSearch, region: np.ndarray, cells: torch.Tensor, category: int,
-                             standing: list[Hypothesis], standing_maps: CellMaps, explained_cells: torch.Tensor
-                             ) -> tuple[Hypothesis, float, float, tuple] | None:
+                             standing: list[Hypothesis], standing_maps: CellMaps | None,
+                             explained_cells: torch.Tensor) -> RegionFit | None:
     """The hypothesis of ``category`` whose visible silhouette best fits a region: base centres every
     ``local_step_px`` over the region's box and as far again below it, the ``region_candidates`` best
-    footprint-free (size, azimuth, position) by coarse score rendered, each seen only where it is nearer than every
-    ``standing`` proposal (``standing_maps``: their cell maps), and ranked by the IoU of those cells with the
-    region's. Returns it, the IoU, its score over the region's cells and its tables."""
+    footprint-free (size, azimuth, position) by coarse score rendered, each hidden on the ``explained_cells``
+    where a ``standing`` proposal (``standing_maps``: their cell maps) is nearer, and ranked by the IoU of its
+    visible cells with the region's ``cells``. The category meshes in front overshoot into the region, so without
+    the explained-cells rule they would hide every candidate there."""
     config, camera = search.config, search.camera
     ys, xs = np.nonzero(region)
     step = config.local_step_px
@@ -1378,9 +1395,7 @@ def _named_region_hypothesis(search: ObjectSearch, region: np.ndarray, cells: to
         if len(candidates) >= config.region_candidates or not math.isfinite(float(flat[idx])):
             break
         p, s_, az = np.unravel_index(idx, own.shape)
-        x, y = (float(t) for t in grid.ground[p, :2])
-        hyp = Hypothesis(-1, category, int(s_), int(az), x, y, yaw_of(camera, x, y, float(config.azimuths[az])),
-                         float(grid.depth[p]), float(flat[idx]))
+        hyp = _hypothesis_at(grid, int(p), category, s_, az, float(flat[idx]), camera, config)
         if not any(footprints_overlap(hyp, other, config.footprint_shrink) for other in standing):
             candidates.append(hyp)
     if not candidates:
@@ -1390,9 +1405,9 @@ def _named_region_hypothesis(search: ObjectSearch, region: np.ndarray, cells: to
     region_cells = cells[: size[0], : size[1]]
     visible = mask
     if standing:
-        s_fg, s_mask, s_depth = standing_maps
-        nearest = torch.where(s_mask, s_depth, torch.full_like(s_depth, float("inf"))).min(0).values
-        hidden = explained_cells[: size[0], : size[1]][None] & (nearest[: size[0], : size[1]][None] < depth)
+        _, standing_mask, standing_depth = standing_maps
+        nearest = torch.where(standing_mask, standing_depth, torch.full_like(standing_depth, float("inf"))).min(0)
+        hidden = explained_cells[: size[0], : size[1]][None] & (nearest.values[: size[0], : size[1]][None] < depth)
         visible = mask & ~hidden
     inter = (visible & region_cells).flatten(1).sum(-1).float()
     union = (visible | region_cells).flatten(1).sum(-1).float().clamp_min(1.0)
@@ -1401,7 +1416,8 @@ def _named_region_hypothesis(search: ObjectSearch, region: np.ndarray, cells: to
     hyp = candidates[best]
     score = float(torch.where(visible[best] & region_cells, fg[best], torch.zeros_like(fg[best])).sum())
     near = torch.linalg.norm(grid.ground[:, :2] - torch.tensor([hyp.x, hyp.y]), dim=-1) <= config.table_radius
-    return hyp, float(iou[best]), score, _tables_of(scores[near].double())
+    return RegionFit(hyp, float(iou[best]), score, _tables_of(scores[near].double()),
+                     (fg[best:best + 1], mask[best:best + 1], depth[best:best + 1]))
 
 
 def add_region_proposals(search: ObjectSearch, explained: np.ndarray | None, name_regions=None
@@ -1434,7 +1450,9 @@ def add_region_proposals(search: ObjectSearch, explained: np.ndarray | None, nam
     picked: list[Hypothesis] = []
     picked_tables: list[tuple | None] = []  # tables to fall back on (None: the coarse grid's)
     region_scores: list[float] = []
-    standing_maps = None
+    standing_maps: CellMaps | None = None  # cell maps of search.located + picked, rendered when first needed
+    explained_cells = _region_cells(explained >= 0, size, 0.5) if explained is not None else \
+        torch.zeros(size, dtype=torch.bool)
     covered = torch.zeros(size, dtype=torch.bool)  # the cells the picked peaks' meshes cover
     for region in unexplained_regions(search.foreground, explained, config):
         cells = _region_cells(region, size, config.region_cell_share)
@@ -1445,7 +1463,8 @@ def add_region_proposals(search: ObjectSearch, explained: np.ndarray | None, nam
         score = torch.where(inside, pool_fg, torch.zeros_like(pool_fg)).flatten(1).sum(-1)
         score = torch.where(cover >= config.region_min_cover, score, torch.full_like(score, -float("inf")))
         best = int(score.argmax())
-        hyp, hyp_score, hyp_mask, fallback = search.pool[best], float(score[best]), pool_mask[best], None
+        hyp, hyp_score, hyp_mask = search.pool[best], float(score[best]), pool_mask[best]
+        fallback, hyp_maps = None, None
         if hyp_score <= config.region_min_score or \
                 any(footprints_overlap(hyp, other, config.footprint_shrink) for other in search.located + picked):
             if config.region_named_iou is None or name_regions is None:
@@ -1455,17 +1474,19 @@ def add_region_proposals(search: ObjectSearch, explained: np.ndarray | None, nam
             if float(probabilities[category]) < config.region_named_probability:
                 continue
             standing = search.located + picked
-            if standing_maps is None or len(standing_maps[0]) != len(standing):
+            if standing_maps is None:
                 standing_maps = cell_scores(standing, search.features, search.clutter, search.meshes, search.camera,
                                             config)
-            found = _named_region_hypothesis(search, region, cells, category, standing, standing_maps,
-                                             _region_cells(explained >= 0, size, 0.5) if explained is not None
-                                             else torch.zeros(size, dtype=torch.bool))
-            if found is None or found[1] < config.region_named_iou or found[2] <= config.region_named_min_score:
+            fit = _named_region_hypothesis(search, region, cells, category, standing, standing_maps,
+                                           explained_cells)
+            if fit is None or fit.iou < config.region_named_iou or fit.score <= config.region_named_min_score:
                 continue
-            hyp, _, hyp_score, fallback = found
-            hyp_mask = cell_scores([hyp], search.features, search.clutter, search.meshes, search.camera,
-                                   config)[1][0][: size[0], : size[1]]
+            hyp, hyp_score, fallback, hyp_maps = fit.hypothesis, fit.score, fit.tables, fit.maps
+            hyp_mask = hyp_maps[1][0][: size[0], : size[1]]
+        if standing_maps is not None:  # the pick stands in front of later regions' candidates too
+            hyp_maps = hyp_maps or cell_scores([hyp], search.features, search.clutter, search.meshes, search.camera,
+                                               config)
+            standing_maps = tuple(torch.cat([t, n]) for t, n in zip(standing_maps, hyp_maps))
         picked.append(hyp)
         picked_tables.append(fallback)
         covered |= hyp_mask

@@ -238,8 +238,7 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
     def name_regions(masks: torch.Tensor) -> torch.Tensor:
         """[K, 5] category probabilities of regions [K, H, W] read by the attribute network."""
         subtype = attributes.object_loglik(img, masks)["subtype"].exp().cpu()
-        return torch.stack([subtype[:, [i for i, s in enumerate(SUBTYPES) if ontology.CATEGORY_OF[s] == c]].sum(-1)
-                            for c in ontology.CATEGORIES], -1)
+        return subtype.new_zeros(len(subtype), len(CATEGORIES)).index_add_(1, SUBTYPE_CATEGORY, subtype)
 
     grown = add_region_proposals(search, parsed.object_ids, name_regions if attributes is not None else None)
     if grown is not None:
