@@ -447,3 +447,24 @@ def test_the_centre_heatmap_brings_a_misplaced_proposal_back_to_its_object(three
     (kept,), _ = relocate([off], *args[:5], replace(config, centre_reach_px=0.0, centre_weight=0.0), *args[6:],
                           heatmap, peaks)
     assert (kept.x, kept.y) == (stays.x, stays.y)  # the prior off: as without the head
+
+
+def test_a_region_proposal_owns_the_pixels_of_its_region_that_its_mesh_covers():
+    """A nearer proposal's category mesh overshoots the region a hidden object was proposed for; the region's
+    pixels go to the region proposal where its own mesh covers them, and nowhere else."""
+    from po3d_ppl.perception.object_parser import _claim_regions
+
+    config = ParserConfig(mask_stride=2)
+    height, width = 8, 12
+    ownership = torch.zeros(height, width, dtype=torch.long)  # the front proposal 0 owns everything
+    ownership[:, -2:] = -1  # background
+    coverage = torch.zeros(2, height // 2, width // 2, dtype=torch.bool)
+    coverage[0] = True
+    coverage[1, :, :3] = True  # proposal 1's mesh covers the left half (pixels x < 6)
+    claims = np.full((height, width), -1, dtype=np.int64)
+    claims[2:6, 3:9] = 1  # its region straddles that edge
+    owned = _claim_regions(ownership, coverage, claims, config)
+    assert (owned[2:6, 3:6] == 1).all()  # claimed and covered
+    assert (owned[2:6, 6:9] == 0).all()  # claimed but outside its mesh: the front proposal keeps them
+    assert (owned[:2] == ownership[:2]).all() and (owned[6:] == ownership[6:]).all()
+    assert (owned[:, -2:] == -1).all()

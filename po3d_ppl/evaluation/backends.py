@@ -108,7 +108,8 @@ class SimulatedBackend:
 #: (``SceneParserConfig.style_pose_hypotheses``). 8: centre proposals (``ParserConfig.centre_threshold``). 9: the
 #: centre heatmap as a position prior in the local re-search (``ParserConfig.centre_weight``). 10: the second
 #: search names a region whose peak is blocked and fits that category's visible cells (``region_named_iou``).
-EVIDENCE_VERSION = 10
+#: 11: a region proposal owns the pixels of its region that its mesh covers (``object_parser._claim_regions``).
+EVIDENCE_VERSION = 11
 
 
 @dataclass(frozen=True)

@@ -1202,6 +1202,8 @@ class ObjectSearch:
     timings: dict[str, float] = field(default_factory=dict)
     #: how many of ``located`` (the last ones) came from unexplained foreground (:func:`add_region_proposals`)
     from_regions: int = 0
+    #: [H, W] per pixel the ``located`` index of the region proposal that claims it, -1 none (None: no claim)
+    region_claims: np.ndarray | None = None
 
 
 def search_objects(image, model: FeatureModel | None = None, config: ParserConfig | None = None,
@@ -1277,12 +1279,19 @@ def record_objects(search: ObjectSearch) -> ObjectProposals:
     config, img, camera = search.config, search.image, search.camera
     located, new_scores, tables = search.located, search.proposal_scores, search.tables
     fg = cell_scores(located, search.features, search.clutter, search.meshes, camera, config)[0] if located else None
-    ownership, silhouette = _final_ownership(located, camera, config, img.size, fg, search.foreground, search.chroma)
+    claims = search.region_claims
+    ownership, silhouette = _final_ownership(located, camera, config, img.size, fg, search.foreground, search.chroma,
+                                             claims)
     keep = _not_fragments(ownership, silhouette, config.min_visible_fraction)
     if len(keep) < len(located):
         located, new_scores, tables = ([items[i] for i in keep] for items in (located, new_scores, tables))
         fg = fg[keep] if keep else None
-        ownership, _ = _final_ownership(located, camera, config, img.size, fg, search.foreground, search.chroma)
+        if claims is not None:  # re-index the claims to the kept proposals (-1: a dropped one's)
+            renumber = np.full(len(silhouette) + 1, -1, dtype=np.int64)
+            renumber[np.asarray(keep, dtype=np.int64)] = np.arange(len(keep))
+            claims = renumber[claims]  # index -1 reads the last entry, which is -1
+        ownership, _ = _final_ownership(located, camera, config, img.size, fg, search.foreground, search.chroma,
+                                        claims)
     record = _record(located, new_scores, tables, camera, config, ownership, search.calibration)
     record.timings = {**search.timings, "record": time.perf_counter() - t0}
     return record
@@ -1438,7 +1447,8 @@ def add_region_proposals(search: ObjectSearch, explained: np.ndarray | None, nam
     in, category probabilities [K, 5] out) names the region and :func:`_named_region_hypothesis` searches that
     category afresh (``region_named_iou``): hidden objects show mostly as such regions, and their peaks are
     their occluders'. A proposal is then re-searched locally like the others (its tables; the move is undone if
-    its footprint then meets another's) but not refined; its existence score is its region score. ``explained``:
+    its footprint then meets another's) but not refined; its existence score is its region score. Each proposal
+    claims its region's pixels for its mask (``ObjectSearch.region_claims``, :func:`_claim_regions`). ``explained``:
     the scene parser's most likely scene (``ParsedScene.object_ids``; None when it has no proposal)."""
     config = search.config
     if config.region_min_score is None or search.foreground is None or not search.pool:
@@ -1454,6 +1464,8 @@ def add_region_proposals(search: ObjectSearch, explained: np.ndarray | None, nam
     explained_cells = _region_cells(explained >= 0, size, 0.5) if explained is not None else \
         torch.zeros(size, dtype=torch.bool)
     covered = torch.zeros(size, dtype=torch.bool)  # the cells the picked peaks' meshes cover
+    claims = np.full(search.foreground.shape, -1, dtype=np.int64) if search.region_claims is None else \
+        search.region_claims.copy()  # each pick's region, for its mask (_claim_regions)
     for region in unexplained_regions(search.foreground, explained, config):
         cells = _region_cells(region, size, config.region_cell_share)
         if not bool(cells.any()) or float((cells & covered).sum()) >= config.region_min_cover * float(cells.sum()):
@@ -1487,6 +1499,7 @@ def add_region_proposals(search: ObjectSearch, explained: np.ndarray | None, nam
             hyp_maps = hyp_maps or cell_scores([hyp], search.features, search.clutter, search.meshes, search.camera,
                                                config)
             standing_maps = tuple(torch.cat([t, n]) for t, n in zip(standing_maps, hyp_maps))
+        claims[region] = len(search.located) + len(picked)
         picked.append(hyp)
         picked_tables.append(fallback)
         covered |= hyp_mask
@@ -1503,7 +1516,8 @@ def add_region_proposals(search: ObjectSearch, explained: np.ndarray | None, nam
             tables[i] = picked_tables[i] or _tables(search.scores, search.grid, picked[i], config)
         kept.append(moved[i])
     return replace(search, located=kept, proposal_scores=search.proposal_scores + region_scores,
-                   tables=search.tables + tables, from_regions=search.from_regions + len(picked))
+                   tables=search.tables + tables, from_regions=search.from_regions + len(picked),
+                   region_claims=claims)
 
 
 def _record(accepted: list[Hypothesis], new_scores: list[float], tables: list, camera: Camera,
@@ -1551,19 +1565,44 @@ def _chroma(img: ImageInput) -> torch.Tensor:
 
 
 def _final_ownership(accepted: list[Hypothesis], camera: Camera, config: ParserConfig, size: tuple[int, int],
-                     fg: torch.Tensor | None, foreground: np.ndarray | None, chroma: torch.Tensor | None = None
-                     ) -> tuple[torch.Tensor, torch.Tensor]:
+                     fg: torch.Tensor | None, foreground: np.ndarray | None, chroma: torch.Tensor | None = None,
+                     claims: np.ndarray | None = None) -> tuple[torch.Tensor, torch.Tensor]:
     """The record's ownership map (the z-buffer cut to the foreground, or to the evidence) and each proposal's
-    silhouette pixels (:func:`_ownership`)."""
+    silhouette pixels (:func:`_ownership`). ``claims`` [H, W] (the region proposals' regions, -1 none): a claimed
+    pixel its claimant's mesh covers goes to the claimant (:func:`_claim_regions`)."""
     ownership, silhouette, coverage = _ownership(accepted, camera, config, size, fg)
     if foreground is not None:
         ownership = _foreground_cut(ownership, foreground, config.grow_px)
         if chroma is not None and config.colour_margin is not None and len(accepted) >= 2:
             ownership = _recolour(ownership, coverage, chroma, config)
-        return ownership, silhouette
-    if fg is not None and config.mask_by_evidence:
-        return _evidence_cut(ownership, fg, config.mask_threshold), silhouette
+    elif fg is not None and config.mask_by_evidence:
+        ownership = _evidence_cut(ownership, fg, config.mask_threshold)
+    if claims is not None and accepted:
+        ownership = _claim_regions(ownership, coverage, claims, config)
     return ownership, silhouette
+
+
+def _pixel_coverage(coverage: torch.Tensor, config: ParserConfig, size: tuple[int, int]) -> torch.Tensor:
+    """[N, H, W] each mesh's coverage (rendered at ``mask_stride``) at full resolution ``size`` = (H, W)."""
+    height, width = size
+    covered = coverage.repeat_interleave(config.mask_stride, 1).repeat_interleave(config.mask_stride, 2)
+    covered = F.pad(covered, (0, max(0, width - covered.shape[2]), 0, max(0, height - covered.shape[1])))
+    return covered[:, :height, :width]
+
+
+def _claim_regions(ownership: torch.Tensor, coverage: torch.Tensor, claims: np.ndarray, config: ParserConfig
+                   ) -> torch.Tensor:
+    """Pixels of a region proposal's region that its mesh covers go to it. The region is foreground the first
+    reading's aligned subtype silhouettes leave unexplained, so a nearer proposal owns it there only through its
+    category mesh's overshoot, which its cell evidence often claims, since the features of the object behind look
+    like a vehicle's too. Without this, most proposals named behind an occluder kept under
+    ``min_visible_fraction`` of their silhouette and were dropped as slivers (seed 712: the first three of three)."""
+    claim = torch.from_numpy(claims).to(ownership.device)
+    covered = _pixel_coverage(coverage, config, tuple(ownership.shape))
+    rows, cols = torch.nonzero(claim >= 0, as_tuple=True)
+    take = torch.zeros_like(claim, dtype=torch.bool)
+    take[rows, cols] = covered[claim[rows, cols], rows, cols]
+    return torch.where(take, claim, ownership)
 
 
 def _recolour(ownership: torch.Tensor, coverage: torch.Tensor, chroma: torch.Tensor, config: ParserConfig
@@ -1572,11 +1611,8 @@ def _recolour(ownership: torch.Tensor, coverage: torch.Tensor, chroma: torch.Ten
     owner to another proposal whose mesh covers it when its chroma is within ``colour_close`` of that proposal's
     median and nearer to it than to the owner's by ``colour_margin`` (the depth order of enclosing category meshes
     misplaces the boundary between touching objects; the world paints each object one colour)."""
-    height, width = ownership.shape
     n = coverage.shape[0]
-    covered = coverage.repeat_interleave(config.mask_stride, 1).repeat_interleave(config.mask_stride, 2)
-    covered = F.pad(covered, (0, max(0, width - covered.shape[2]), 0, max(0, height - covered.shape[1])))
-    covered = covered[:, :height, :width]
+    covered = _pixel_coverage(coverage, config, tuple(ownership.shape))
     medians = torch.full((n, 2), float("nan"))
     for k in range(n):
         own = ownership == k
