@@ -461,9 +461,9 @@ def test_a_region_proposal_owns_the_pixels_of_its_region_that_its_mesh_covers():
     coverage = torch.zeros(2, height // 2, width // 2, dtype=torch.bool)
     coverage[0] = True
     coverage[1, :, :3] = True  # proposal 1's mesh covers the left half (pixels x < 6)
-    claims = np.full((height, width), -1, dtype=np.int64)
-    claims[2:6, 3:9] = 1  # its region straddles that edge
-    owned = _claim_regions(ownership, coverage, claims, config)
+    region = np.zeros((height, width), dtype=bool)
+    region[2:6, 3:9] = True  # its region straddles that edge
+    owned = _claim_regions(ownership, coverage, [None, region], config)
     assert (owned[2:6, 3:6] == 1).all()  # claimed and covered
     assert (owned[2:6, 6:9] == 0).all()  # claimed but outside its mesh: the front proposal keeps them
     assert (owned[:2] == ownership[:2]).all() and (owned[6:] == ownership[6:]).all()

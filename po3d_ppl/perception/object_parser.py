@@ -1200,10 +1200,14 @@ class ObjectSearch:
     #: its peaks over ``centre_threshold`` (None without the head)
     centre_peaks: CentrePeaks | None = None
     timings: dict[str, float] = field(default_factory=dict)
-    #: how many of ``located`` (the last ones) came from unexplained foreground (:func:`add_region_proposals`)
-    from_regions: int = 0
-    #: [H, W] per pixel the ``located`` index of the region proposal that claims it, -1 none (None: no claim)
-    region_claims: np.ndarray | None = None
+    #: the [H, W] regions of unexplained foreground the last ``len(regions)`` of ``located`` were proposed for
+    #: (:func:`add_region_proposals`); each claims its region's pixels for its mask (:func:`_claim_regions`)
+    regions: tuple[np.ndarray, ...] = ()
+
+    @property
+    def from_regions(self) -> int:
+        """How many of ``located`` (the last ones) came from unexplained foreground."""
+        return len(self.regions)
 
 
 def search_objects(image, model: FeatureModel | None = None, config: ParserConfig | None = None,
@@ -1279,19 +1283,16 @@ def record_objects(search: ObjectSearch) -> ObjectProposals:
     config, img, camera = search.config, search.image, search.camera
     located, new_scores, tables = search.located, search.proposal_scores, search.tables
     fg = cell_scores(located, search.features, search.clutter, search.meshes, camera, config)[0] if located else None
-    claims = search.region_claims
+    regions = [None] * (len(located) - search.from_regions) + list(search.regions)  # per proposal, None: none
     ownership, silhouette = _final_ownership(located, camera, config, img.size, fg, search.foreground, search.chroma,
-                                             claims)
+                                             regions)
     keep = _not_fragments(ownership, silhouette, config.min_visible_fraction)
     if len(keep) < len(located):
-        located, new_scores, tables = ([items[i] for i in keep] for items in (located, new_scores, tables))
+        located, new_scores, tables, regions = ([items[i] for i in keep]
+                                                for items in (located, new_scores, tables, regions))
         fg = fg[keep] if keep else None
-        if claims is not None:  # re-index the claims to the kept proposals (-1: a dropped one's)
-            renumber = np.full(len(silhouette) + 1, -1, dtype=np.int64)
-            renumber[np.asarray(keep, dtype=np.int64)] = np.arange(len(keep))
-            claims = renumber[claims]  # index -1 reads the last entry, which is -1
         ownership, _ = _final_ownership(located, camera, config, img.size, fg, search.foreground, search.chroma,
-                                        claims)
+                                        regions)
     record = _record(located, new_scores, tables, camera, config, ownership, search.calibration)
     record.timings = {**search.timings, "record": time.perf_counter() - t0}
     return record
@@ -1448,7 +1449,7 @@ def add_region_proposals(search: ObjectSearch, explained: np.ndarray | None, nam
     category afresh (``region_named_iou``): hidden objects show mostly as such regions, and their peaks are
     their occluders'. A proposal is then re-searched locally like the others (its tables; the move is undone if
     its footprint then meets another's) but not refined; its existence score is its region score. Each proposal
-    claims its region's pixels for its mask (``ObjectSearch.region_claims``, :func:`_claim_regions`). ``explained``:
+    claims its region's pixels for its mask (``ObjectSearch.regions``, :func:`_claim_regions`). ``explained``:
     the scene parser's most likely scene (``ParsedScene.object_ids``; None when it has no proposal)."""
     config = search.config
     if config.region_min_score is None or search.foreground is None or not search.pool:
@@ -1464,8 +1465,7 @@ def add_region_proposals(search: ObjectSearch, explained: np.ndarray | None, nam
     explained_cells = _region_cells(explained >= 0, size, 0.5) if explained is not None else \
         torch.zeros(size, dtype=torch.bool)
     covered = torch.zeros(size, dtype=torch.bool)  # the cells the picked peaks' meshes cover
-    claims = np.full(search.foreground.shape, -1, dtype=np.int64) if search.region_claims is None else \
-        search.region_claims.copy()  # each pick's region, for its mask (_claim_regions)
+    regions: list[np.ndarray] = []  # each pick's region
     for region in unexplained_regions(search.foreground, explained, config):
         cells = _region_cells(region, size, config.region_cell_share)
         if not bool(cells.any()) or float((cells & covered).sum()) >= config.region_min_cover * float(cells.sum()):
@@ -1499,7 +1499,7 @@ def add_region_proposals(search: ObjectSearch, explained: np.ndarray | None, nam
             hyp_maps = hyp_maps or cell_scores([hyp], search.features, search.clutter, search.meshes, search.camera,
                                                config)
             standing_maps = tuple(torch.cat([t, n]) for t, n in zip(standing_maps, hyp_maps))
-        claims[region] = len(search.located) + len(picked)
+        regions.append(region)
         picked.append(hyp)
         picked_tables.append(fallback)
         covered |= hyp_mask
@@ -1516,8 +1516,7 @@ def add_region_proposals(search: ObjectSearch, explained: np.ndarray | None, nam
             tables[i] = picked_tables[i] or _tables(search.scores, search.grid, picked[i], config)
         kept.append(moved[i])
     return replace(search, located=kept, proposal_scores=search.proposal_scores + region_scores,
-                   tables=search.tables + tables, from_regions=search.from_regions + len(picked),
-                   region_claims=claims)
+                   tables=search.tables + tables, regions=search.regions + tuple(regions))
 
 
 def _record(accepted: list[Hypothesis], new_scores: list[float], tables: list, camera: Camera,
@@ -1566,10 +1565,10 @@ def _chroma(img: ImageInput) -> torch.Tensor:
 
 def _final_ownership(accepted: list[Hypothesis], camera: Camera, config: ParserConfig, size: tuple[int, int],
                      fg: torch.Tensor | None, foreground: np.ndarray | None, chroma: torch.Tensor | None = None,
-                     claims: np.ndarray | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+                     regions: list[np.ndarray | None] | None = None) -> tuple[torch.Tensor, torch.Tensor]:
     """The record's ownership map (the z-buffer cut to the foreground, or to the evidence) and each proposal's
-    silhouette pixels (:func:`_ownership`). ``claims`` [H, W] (the region proposals' regions, -1 none): a claimed
-    pixel its claimant's mesh covers goes to the claimant (:func:`_claim_regions`)."""
+    silhouette pixels (:func:`_ownership`). ``regions``: per proposal the [H, W] region it was proposed for (None:
+    not a region proposal), whose pixels under its mesh it owns (:func:`_claim_regions`)."""
     ownership, silhouette, coverage = _ownership(accepted, camera, config, size, fg)
     if foreground is not None:
         ownership = _foreground_cut(ownership, foreground, config.grow_px)
@@ -1577,8 +1576,8 @@ def _final_ownership(accepted: list[Hypothesis], camera: Camera, config: ParserC
             ownership = _recolour(ownership, coverage, chroma, config)
     elif fg is not None and config.mask_by_evidence:
         ownership = _evidence_cut(ownership, fg, config.mask_threshold)
-    if claims is not None and accepted:
-        ownership = _claim_regions(ownership, coverage, claims, config)
+    if regions and any(r is not None for r in regions):
+        ownership = _claim_regions(ownership, coverage, regions, config)
     return ownership, silhouette
 
 
@@ -1590,19 +1589,19 @@ def _pixel_coverage(coverage: torch.Tensor, config: ParserConfig, size: tuple[in
     return covered[:, :height, :width]
 
 
-def _claim_regions(ownership: torch.Tensor, coverage: torch.Tensor, claims: np.ndarray, config: ParserConfig
-                   ) -> torch.Tensor:
+def _claim_regions(ownership: torch.Tensor, coverage: torch.Tensor, regions: list[np.ndarray | None],
+                   config: ParserConfig) -> torch.Tensor:
     """Pixels of a region proposal's region that its mesh covers go to it. The region is foreground the first
     reading's aligned subtype silhouettes leave unexplained, so a nearer proposal owns it there only through its
     category mesh's overshoot, which its cell evidence often claims, since the features of the object behind look
     like a vehicle's too. Without this, most proposals named behind an occluder kept under
     ``min_visible_fraction`` of their silhouette and were dropped as slivers (seed 712: the first three of three)."""
-    claim = torch.from_numpy(claims).to(ownership.device)
     covered = _pixel_coverage(coverage, config, tuple(ownership.shape))
-    rows, cols = torch.nonzero(claim >= 0, as_tuple=True)
-    take = torch.zeros_like(claim, dtype=torch.bool)
-    take[rows, cols] = covered[claim[rows, cols], rows, cols]
-    return torch.where(take, claim, ownership)
+    owned = ownership.clone()
+    for k, region in enumerate(regions):  # the regions are disjoint (connected components)
+        if region is not None:
+            owned[torch.from_numpy(region).to(owned.device) & covered[k]] = k
+    return owned
 
 
 def _recolour(ownership: torch.Tensor, coverage: torch.Tensor, chroma: torch.Tensor, config: ParserConfig
