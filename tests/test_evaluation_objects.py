@@ -105,3 +105,27 @@ def test_certain_evidence_scores_perfectly_and_a_misread_is_counted():
     assert counts.figures()["color_accuracy"] == 0.0
     outcome = score_image(EvidenceAsProposals.of(evidence), scene, "x", 0.0)
     assert all(o.proposal >= 0 and o.azimuth_error < 1e-6 for o in outcome.objects if o.visible_pixels >= 200)
+
+
+def test_detection_failures_sort_misses_and_false_proposals_by_the_box_that_overlaps_them():
+    from po3d_ppl.evaluation.objects import detection_failures
+
+    def obj(i, box, proposal, pixels=500):
+        return ObjectOutcome("a.png", i, "car", pixels, 0.0, 5.0, proposal, box=box)
+
+    objects = [obj(0, [0, 0, 10, 10], 0),  # found
+               obj(1, [8, 0, 10, 10], -1),  # beside it, inside proposal 0's wide box: merged
+               obj(2, [100, 0, 20, 10], -1),  # proposal 1 covers its left half only: wrong extent
+               obj(3, [300, 300, 10, 10], -1),  # nothing near: unseen
+               obj(4, [200, 0, 10, 10], -1, pixels=50)]  # under the pixel floor: not counted
+    proposals = [[0, 0, 18, 10], [100, 0, 8, 10], [2, 0, 10, 10], [500, 0, 10, 10]]
+    image = ImageOutcome("a.png", objects, proposals=4, matched_small=0, existence_logodds=[1.0] * 4,
+                         proposal_matched=[True, False, False, False], seconds=0.0, timings={},
+                         proposal_boxes=proposals)
+    failures = detection_failures([image])
+    assert failures["missed"] == {"merged": 1, "misboxed": 1, "unseen": 1}
+    # proposal 2 overlaps the found object 0 (a duplicate), 1 the missed object 2, 3 nothing
+    assert failures["false_proposals"] == {"duplicate": 1, "misboxed": 1, "phantom": 1}
+    old = ImageOutcome("a.png", [obj(0, [], -1)], 1, 0, [1.0], [False], 0.0, {})  # saved before boxes were kept
+    assert detection_failures([old]) == {"missed": {"merged": 0, "misboxed": 0, "unseen": 0},
+                                         "false_proposals": {"duplicate": 0, "misboxed": 0, "phantom": 0}}

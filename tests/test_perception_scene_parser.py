@@ -60,6 +60,34 @@ def test_evidence_fills_the_contract_from_pixels(bus_behind_car, parsed):
     assert {"objects.coarse", "projection", "total"} <= set(parsed.timings)
 
 
+def test_evidence_boxes_are_the_objects_visible_boxes(bus_behind_car, parsed):
+    from po3d_ppl.evaluation.objects import box_iou
+
+    ev = parsed.evidence
+    for obj in bus_behind_car.scene.objects:
+        box = ev.boxes[_nearest(ev, obj.position[:2])].tolist()
+        assert box_iou(box, obj.annotation.bbox) > 0.7
+    assert not (ev.masks[0] & ev.masks[1]).any()  # one owner per pixel
+
+
+def test_seen_masks_give_pixels_to_the_proposal_the_scene_shows_there():
+    from po3d_ppl.errors import InputError
+    from po3d_ppl.perception.scene_parser import seen_masks
+
+    masks = torch.zeros(2, 4, 6, dtype=torch.bool)
+    masks[0, :, :4] = True  # proposal 0's category mesh spills over columns 2-3
+    masks[1, :, 4:] = True
+    ids = np.full((4, 6), -1)
+    ids[:, :2] = 0
+    ids[:, 2:5] = 1  # the aligned silhouettes: proposal 1 is seen from column 2 (not on column 5)
+    out = seen_masks(masks, ids)
+    assert out[0].sum() == 8 and out[0, :, :2].all()
+    assert out[1, :, 2:].all()  # its spilled columns, and column 5 it keeps where nothing else is seen
+    assert not (out[0] & out[1]).any()
+    with pytest.raises(InputError, match="object_ids"):
+        seen_masks(masks, ids[:3])
+
+
 def test_an_image_without_vehicles_gives_empty_evidence():
     """The world's bare ground (the one object stands behind the camera, out of view)."""
     behind = ObjectSpec("sedan", "red", "metal", "large", 0.0, 20.0, -20.0)

@@ -68,6 +68,14 @@ def _evidence_markdown(figures: dict) -> str:
         lines += ["", f"Objects >= 20% occluded ({occluded.get('objects')}): recall "
                       f"{_num(occluded.get('recall'))}, category {_num(occluded.get('category_accuracy'))}, "
                       f"azimuth within 30 deg {_num(occluded.get('azimuth_within_30'))}."]
+    failures = objects.get("detection_failures")
+    if failures:
+        missed, false = failures["missed"], failures["false_proposals"]
+        lines += ["", f"Detection failures (`evaluation.objects.detection_failures`): {sum(missed.values())} objects "
+                      f"missed ({missed['merged']} merged into a neighbour's proposal, {missed['misboxed']} found "
+                      f"with the wrong extent, {missed['unseen']} unseen); {sum(false.values())} false proposals "
+                      f"({false['duplicate']} duplicates of a found object, {false['misboxed']} on a missed object "
+                      f"with the wrong extent, {false['phantom']} on nothing)."]
     lines += ["", "| projected table | entries | positive rate | ECE | NLL |", "|---|---|---|---|---|"]
     for name, row in figures["projected_tables"].items():
         raw = row["raw"]

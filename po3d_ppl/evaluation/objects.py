@@ -15,6 +15,9 @@ Ground truth is read here only, for scoring; the parser sees the pixels.
   depths) are. The parser reports positions for its estimated camera; the truth uses the image's true camera.
 - **Depth order**: over pairs of matched objects in one image whose true view depths differ by >= 0.05, whether
   the proposals' depths order them the same way.
+- **Failures**: :func:`detection_failures` sorts every missed object and false proposal by what went wrong
+  (merged into a neighbour's proposal, a proposal of the wrong extent, nothing there), which says which stage to
+  work on: the 3D-NMS and second search (merged, unseen) or the masks (wrong extent).
 - **Calibration**: ECE (15 bins, :func:`~po3d_ppl.evaluation.calibration.binned_calibration_error`) of the top
   category's softmax probability on matched objects (the tables come calibrated: :func:`fit_calibration` fits the
   temperatures on a validation seed, ``po3d train calibration``).
@@ -87,6 +90,8 @@ class ObjectOutcome:
     #: The size table (large, small) and the true size's index.
     size_loglik: list[float] = field(default_factory=list)
     true_size: int | None = None
+    #: The object's visible-mask box (x, y, w, h), what proposals are matched against.
+    box: list[float] = field(default_factory=list)
 
 
 @dataclass
@@ -101,6 +106,8 @@ class ImageOutcome:
     proposal_matched: list[bool]
     seconds: float
     timings: dict[str, float]
+    #: Per proposal its box (x, y, w, h).
+    proposal_boxes: list[list[float]] = field(default_factory=list)
 
 
 def score_image(proposals, scene, image_name: str, seconds: float, min_pixels: int = 200, min_iou: float = 0.5
@@ -117,7 +124,7 @@ def score_image(proposals, scene, image_name: str, seconds: float, min_pixels: i
     for j, o in enumerate(objs):
         depth = float(project_points(scene.camera, np.asarray(o.position, dtype=np.float64))[2])
         out = ObjectOutcome(image_name, j, o.category, int(o.annotation.visible_pixels),
-                            float(o.annotation.occlusion_ratio), depth)
+                            float(o.annotation.occlusion_ratio), depth, box=[float(v) for v in truth_boxes[j]])
         p = pairs.get(j)
         if p is not None:
             out.proposal = p
@@ -139,7 +146,8 @@ def score_image(proposals, scene, image_name: str, seconds: float, min_pixels: i
     small = sum(1 for j in pairs if objs[j].annotation.visible_pixels < min_pixels)
     return ImageOutcome(image_name, outcomes, len(proposals), small,
                         [float(v) for v in proposals.existence_logodds],
-                        [i in matched_to for i in range(len(proposals))], seconds, dict(proposals.timings))
+                        [i in matched_to for i in range(len(proposals))], seconds, dict(proposals.timings),
+                        [[float(v) for v in box] for box in proposals.boxes.tolist()])
 
 
 def parse_dataset(data: Path, split: str | None, limit: int | None, parse: Callable, min_pixels: int = 200,
@@ -226,10 +234,52 @@ def summarise(outcomes: Sequence[ImageOutcome], min_pixels: int = 200, occluded_
         "seconds_per_image_median": statistics.median(img.seconds for img in outcomes) if outcomes else None,
         f"occluded_{int(occluded_ratio * 100)}pct": _subset_figures(occluded),
         "per_category": {c: _subset_figures([o for o in objs if o.category == c]) for c in CATEGORIES},
+        "detection_failures": detection_failures(outcomes, min_pixels),
         "stage_seconds_median": {k: statistics.median(img.timings[k] for img in outcomes)
                                  for k in (outcomes[0].timings if outcomes else {})},
     }
     return figures
+
+
+def detection_failures(outcomes: Sequence[ImageOutcome], min_pixels: int = 200, near_iou: float = 0.1
+                       ) -> dict[str, dict[str, int]]:
+    """What went wrong with each missed object (>= ``min_pixels``) and each false proposal, by the box that
+    overlaps it most (IoU >= ``near_iou`` counts as overlapping):
+
+    - a missed object is ``merged`` when that proposal was matched to another object (one proposal took two
+      objects, or an occluder's mask took a hidden object's pixels), ``misboxed`` when that proposal is unmatched
+      (it found the object with the wrong extent: a fragment, or a mask that spilled onto a neighbour), and
+      ``unseen`` when no proposal overlaps it;
+    - a false proposal (unmatched; one matched to a smaller object is not false, as in the precision) is a
+      ``duplicate`` when the object it overlaps most was matched by another proposal, ``misboxed`` when that object
+      went unmatched, and a ``phantom`` when it overlaps none.
+
+    Outcomes saved before boxes were recorded carry none and are skipped."""
+    missed = {"merged": 0, "misboxed": 0, "unseen": 0}
+    false = {"duplicate": 0, "misboxed": 0, "phantom": 0}
+    for img in outcomes:
+        if len(img.proposal_boxes) != img.proposals or any(not o.box for o in img.objects):
+            continue
+        matched_objects = {o.proposal: o for o in img.objects if o.proposal >= 0}
+        for o in img.objects:
+            if o.proposal >= 0 or o.visible_pixels < min_pixels:
+                continue
+            overlaps = [box_iou(box, o.box) for box in img.proposal_boxes]
+            best = int(np.argmax(overlaps)) if overlaps else -1
+            if best < 0 or overlaps[best] < near_iou:
+                missed["unseen"] += 1
+            else:
+                missed["merged" if best in matched_objects else "misboxed"] += 1
+        for k, box in enumerate(img.proposal_boxes):
+            if k in matched_objects:
+                continue
+            overlaps = [box_iou(box, o.box) for o in img.objects]
+            best = int(np.argmax(overlaps)) if overlaps else -1
+            if best < 0 or overlaps[best] < near_iou:
+                false["phantom"] += 1
+            else:
+                false["duplicate" if img.objects[best].proposal >= 0 else "misboxed"] += 1
+    return {"missed": missed, "false_proposals": false}
 
 
 def require_both_outcomes(labels: torch.Tensor, what: str) -> None:

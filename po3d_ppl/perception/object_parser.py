@@ -1144,7 +1144,8 @@ def _foreground_cut(ownership: torch.Tensor, foreground: np.ndarray, grow_px: in
     return torch.from_numpy(out)
 
 
-def _boxes(masks: torch.Tensor) -> torch.Tensor:
+def xywh_boxes(masks: torch.Tensor) -> torch.Tensor:
+    """[N, 4] (x, y, w, h) pixel boxes of bool masks [N, H, W] (zeros when empty)."""
     out = torch.zeros(masks.shape[0], 4, dtype=torch.float64)
     for i, m in enumerate(masks):
         ys, xs = torch.nonzero(m, as_tuple=True)
@@ -1540,7 +1541,7 @@ def _record(accepted: list[Hypothesis], new_scores: list[float], tables: list, c
         positions=torch.tensor([[h.x, h.y, 0.0] for h in accepted], dtype=torch.float64).reshape(n, 3),
         depths=torch.tensor([h.depth for h in accepted], dtype=torch.float64),
         rotations=torch.tensor([h.rotation for h in accepted], dtype=torch.float64),
-        boxes=_boxes(masks), masks=masks, ownership=ownership, camera=camera, poses=list(accepted),
+        boxes=xywh_boxes(masks), masks=masks, ownership=ownership, camera=camera, poses=list(accepted),
         notes=NOTES + ((RAW_NOTE,) if calibration == TableCalibration() else ()))
 
 

@@ -28,6 +28,7 @@ scene model's prior decides) and subtypes of one category tie, until an attribut
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -41,7 +42,13 @@ from po3d_ppl.errors import InputError
 from po3d_ppl.evidence import DTYPE, NUM_STYLES, P, S, SceneEvidence, ScenePriors
 from po3d_ppl.perception.alignment import AlignmentConfig, align_silhouette
 from po3d_ppl.perception.image_input import ImageInput, load_image, project_points
-from po3d_ppl.perception.object_parser import add_region_proposals, record_objects, search_objects, yaw_of
+from po3d_ppl.perception.object_parser import (
+    add_region_proposals,
+    record_objects,
+    search_objects,
+    xywh_boxes,
+    yaw_of,
+)
 from po3d_ppl.perception.occlusion import GradedOcclusion, ShiftGrid, graded_occlusion
 from po3d_ppl.perception.simulated import VISIBLE_PART_PIXELS
 from po3d_ppl.world.scene import Camera
@@ -248,8 +255,42 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
         parsed.timings["objects.regions"] = time.perf_counter() - t0
         parsed.notes += (f"{grown.from_regions} proposal(s) from foreground the first reading left unexplained "
                          "(existence from their score there; pose not refined)",)
+    parsed = _seen_as_read(parsed)
     parsed.timings["total"] = time.perf_counter() - start
     return parsed
+
+
+def seen_masks(masks: torch.Tensor, object_ids: np.ndarray) -> torch.Tensor:
+    """[N, H, W] each proposal's visible pixels (``masks``, disjoint) with every pixel that the most likely scene
+    (``object_ids`` [H, W], the aligned subtype silhouettes, -1 none) shows as another proposal given to that one.
+
+    The masks come from the object parser's z-buffer of *category* meshes, which enclose every subtype, so a
+    proposal's mask spills onto a neighbour its mesh overlaps, and an object behind keeps only what the
+    overshoot leaves it; its box is then too large or too small to match. The aligned subtype silhouettes draw
+    the boundary where the objects are. Pixels they do not explain stay with their owner (the silhouettes miss
+    the edges of a slightly misplaced object). Seed 712 (120 images, chosen on): detection precision 0.945 ->
+    0.951, recall 0.940 -> 0.946; keeping only the pixels both agree on fell to 0.929 / 0.927."""
+    n = masks.shape[0]
+    if n == 0:
+        return masks
+    ids = torch.from_numpy(np.asarray(object_ids, dtype=np.int64)).to(masks.device)
+    if tuple(ids.shape) != tuple(masks.shape[1:]):
+        raise InputError("object_ids", f"must be the masks' [H, W] {tuple(masks.shape[1:])}, got {tuple(ids.shape)}")
+    index = torch.arange(1, n + 1, device=masks.device)[:, None, None]
+    owner = (masks.long() * index).amax(0) - 1  # [H, W], -1: no proposal
+    owner = torch.where((owner >= 0) & (ids >= 0) & (ids < n), ids, owner)
+    return owner[None] == torch.arange(n, device=masks.device)[:, None, None]
+
+
+def _seen_as_read(parsed: ParsedScene) -> ParsedScene:
+    """``parsed`` with its evidence's masks and boxes redrawn by :func:`seen_masks` (the tables were read with
+    the object parser's masks; ``parsed.proposals`` keeps those)."""
+    evidence = parsed.evidence
+    if parsed.object_ids is None or evidence.masks is None or evidence.num_objects == 0:
+        return parsed
+    masks = seen_masks(evidence.masks, parsed.object_ids)
+    evidence = dataclasses.replace(evidence, masks=masks, boxes=xywh_boxes(masks).to(evidence.boxes.dtype))
+    return dataclasses.replace(parsed, evidence=evidence)
 
 
 def read_scene(img: ImageInput, proposals, attributes: AttributeNet | None, viewpoint: ViewpointNet | None,
