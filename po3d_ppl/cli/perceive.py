@@ -1,6 +1,7 @@
 """``po3d perceive IMAGE --out DIR``: what perception read from an image.
 
-Writes ``proposals.json`` and ``overlay.png`` (the object parser's proposals), ``evidence.safetensors`` (the full
+Writes ``proposals.json`` and ``overlay.png`` (the object parser's proposals, with the evidence's masks and boxes:
+those the evaluation scores), ``evidence.safetensors`` (the full
 ``SceneEvidence``, every table, readable with ``po3d_ppl.evaluation.cache.evidence_from_tensors``),
 ``evidence.json`` (a reading of it: per object the likely subtype, colour, material, size, pose, occlusion and
 parts) and ``scene.png`` (the most likely scene: projected meshes, part outlines, occluded parts in red, arrows
@@ -8,6 +9,7 @@ from occluders)."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import typer
@@ -38,13 +40,15 @@ def perceive(
         raise InputError("--out", f"{out} exists and is not a directory")
     parsed = ImageParser.load().parse(loaded)
     out.mkdir(parents=True, exist_ok=True)
-    record = proposals_record(parsed.proposals)
+    # the object parser's readings with the masks and boxes the evidence carries (scene_parser.seen_masks)
+    shown = dataclasses.replace(parsed.proposals, masks=parsed.evidence.masks, boxes=parsed.evidence.boxes)
+    record = proposals_record(shown)
     (out / "proposals.json").write_text(json.dumps(record, indent=1) + "\n")
     reading = evidence_record(parsed)
     (out / "evidence.json").write_text(json.dumps(reading, indent=1) + "\n")
     _save_evidence(parsed.evidence, out / "evidence.safetensors")
     rgb = (loaded.pixels.permute(1, 2, 0).numpy() * 255).round().astype(np.uint8)
-    for name, picture in (("overlay.png", draw_overlay(rgb, parsed.proposals, record)),
+    for name, picture in (("overlay.png", draw_overlay(rgb, shown, record)),
                           ("scene.png", draw_scene_overlay(rgb, parsed, reading))):
         if not cv2.imwrite(str(out / name), picture[..., ::-1]):
             raise InputError("--out", f"cannot write {out / name}")

@@ -234,7 +234,8 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
     ``object_calibration``, ``background`` and ``centres`` go to the object parser (default: the shipped ones).
     The scene is read once from the object parser's proposals (:func:`read_scene`) and, where that reading leaves
     foreground unexplained and a second search adds proposals there
-    (:func:`~po3d_ppl.perception.object_parser.add_region_proposals`), once more with them."""
+    (:func:`~po3d_ppl.perception.object_parser.add_region_proposals`), once more with them. The evidence's masks
+    and boxes are then redrawn by that reading's most likely scene (:func:`seen_masks`)."""
     config = config or SceneParserConfig()
     start = time.perf_counter()
     img: ImageInput = load_image(image)
