@@ -257,28 +257,25 @@ def detection_failures(outcomes: Sequence[ImageOutcome], min_pixels: int = 200, 
     Outcomes saved before boxes were recorded carry none and are skipped."""
     missed = {"merged": 0, "misboxed": 0, "unseen": 0}
     false = {"duplicate": 0, "misboxed": 0, "phantom": 0}
+
+    def most_overlapping(box: Sequence[float], others: Sequence[Sequence[float]]) -> int:
+        """Index of the box of ``others`` overlapping ``box`` most, -1 when none reaches ``near_iou``."""
+        overlaps = [box_iou(box, other) for other in others]
+        best = int(np.argmax(overlaps)) if overlaps else -1
+        return best if best >= 0 and overlaps[best] >= near_iou else -1
+
     for img in outcomes:
         if len(img.proposal_boxes) != img.proposals or any(not o.box for o in img.objects):
             continue
-        matched_objects = {o.proposal: o for o in img.objects if o.proposal >= 0}
+        matched_proposals = {o.proposal for o in img.objects if o.proposal >= 0}
         for o in img.objects:
-            if o.proposal >= 0 or o.visible_pixels < min_pixels:
-                continue
-            overlaps = [box_iou(box, o.box) for box in img.proposal_boxes]
-            best = int(np.argmax(overlaps)) if overlaps else -1
-            if best < 0 or overlaps[best] < near_iou:
-                missed["unseen"] += 1
-            else:
-                missed["merged" if best in matched_objects else "misboxed"] += 1
+            if o.proposal < 0 and o.visible_pixels >= min_pixels:
+                best = most_overlapping(o.box, img.proposal_boxes)
+                missed["unseen" if best < 0 else "merged" if best in matched_proposals else "misboxed"] += 1
         for k, box in enumerate(img.proposal_boxes):
-            if k in matched_objects:
-                continue
-            overlaps = [box_iou(box, o.box) for o in img.objects]
-            best = int(np.argmax(overlaps)) if overlaps else -1
-            if best < 0 or overlaps[best] < near_iou:
-                false["phantom"] += 1
-            else:
-                false["duplicate" if img.objects[best].proposal >= 0 else "misboxed"] += 1
+            if k not in matched_proposals:
+                best = most_overlapping(box, [o.box for o in img.objects])
+                false["phantom" if best < 0 else "duplicate" if img.objects[best].proposal >= 0 else "misboxed"] += 1
     return {"missed": missed, "false_proposals": false}
 
 
