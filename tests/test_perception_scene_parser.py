@@ -70,22 +70,23 @@ def test_evidence_boxes_are_the_objects_visible_boxes(bus_behind_car, parsed):
     assert not (ev.masks[0] & ev.masks[1]).any()  # one owner per pixel
 
 
-def test_seen_masks_give_pixels_to_the_proposal_the_scene_shows_there():
+def test_seen_ownership_gives_pixels_to_the_proposal_the_scene_shows_there():
     from po3d_ppl.errors import InputError
-    from po3d_ppl.perception.scene_parser import seen_masks
+    from po3d_ppl.perception.object_parser import ownership_masks
+    from po3d_ppl.perception.scene_parser import seen_ownership
 
-    masks = torch.zeros(2, 4, 6, dtype=torch.bool)
-    masks[0, :, :4] = True  # proposal 0's category mesh spills over columns 2-3
-    masks[1, :, 4:] = True
+    ownership = torch.full((4, 6), -1, dtype=torch.long)
+    ownership[:, :4] = 0  # proposal 0's category mesh spills over columns 2-3
+    ownership[:, 4:] = 1
     ids = np.full((4, 6), -1)
     ids[:, :2] = 0
     ids[:, 2:5] = 1  # the aligned silhouettes: proposal 1 is seen from column 2 (not on column 5)
-    out = seen_masks(masks, ids)
+    out = ownership_masks(seen_ownership(ownership, ids), 2)
     assert out[0].sum() == 8 and out[0, :, :2].all()
     assert out[1, :, 2:].all()  # its spilled columns, and column 5 it keeps where nothing else is seen
     assert not (out[0] & out[1]).any()
     with pytest.raises(InputError, match="object_ids"):
-        seen_masks(masks, ids[:3])
+        seen_ownership(ownership, ids[:3])
 
 
 def test_an_image_without_vehicles_gives_empty_evidence():

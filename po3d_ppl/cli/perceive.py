@@ -40,7 +40,7 @@ def perceive(
         raise InputError("--out", f"{out} exists and is not a directory")
     parsed = ImageParser.load().parse(loaded)
     out.mkdir(parents=True, exist_ok=True)
-    # the object parser's readings with the masks and boxes the evidence carries (scene_parser.seen_masks)
+    # the object parser's readings with the masks and boxes the evidence carries (scene_parser.seen_ownership)
     shown = dataclasses.replace(parsed.proposals, masks=parsed.evidence.masks, boxes=parsed.evidence.boxes)
     record = proposals_record(shown)
     (out / "proposals.json").write_text(json.dumps(record, indent=1) + "\n")

@@ -109,7 +109,7 @@ class SimulatedBackend:
 #: centre heatmap as a position prior in the local re-search (``ParserConfig.centre_weight``). 10: the second
 #: search names a region whose peak is blocked and fits that category's visible cells (``region_named_iou``).
 #: 11: a region proposal owns the pixels of its region that its mesh covers (``object_parser._claim_regions``).
-#: 12: masks and boxes redrawn by the most likely scene's subtype silhouettes (``scene_parser.seen_masks``).
+#: 12: masks and boxes redrawn by the most likely scene's subtype silhouettes (``scene_parser.seen_ownership``).
 EVIDENCE_VERSION = 12
 
 

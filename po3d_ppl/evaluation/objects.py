@@ -272,9 +272,10 @@ def detection_failures(outcomes: Sequence[ImageOutcome], min_pixels: int = 200, 
             if o.proposal < 0 and o.visible_pixels >= min_pixels:
                 best = most_overlapping(o.box, img.proposal_boxes)
                 missed["unseen" if best < 0 else "merged" if best in matched_proposals else "misboxed"] += 1
+        object_boxes = [o.box for o in img.objects]
         for k, box in enumerate(img.proposal_boxes):
             if k not in matched_proposals:
-                best = most_overlapping(box, [o.box for o in img.objects])
+                best = most_overlapping(box, object_boxes)
                 false["phantom" if best < 0 else "duplicate" if img.objects[best].proposal >= 0 else "misboxed"] += 1
     return {"missed": missed, "false_proposals": false}
 

@@ -1145,14 +1145,16 @@ def _foreground_cut(ownership: torch.Tensor, foreground: np.ndarray, grow_px: in
 
 
 def xywh_boxes(masks: torch.Tensor) -> torch.Tensor:
-    """[N, 4] (x, y, w, h) pixel boxes of bool masks [N, H, W] (zeros when empty)."""
-    out = torch.zeros(masks.shape[0], 4, dtype=torch.float64)
-    for i, m in enumerate(masks):
-        ys, xs = torch.nonzero(m, as_tuple=True)
-        if len(xs):
-            x0, y0 = int(xs.min()), int(ys.min())
-            out[i] = torch.tensor([x0, y0, int(xs.max()) - x0 + 1, int(ys.max()) - y0 + 1], dtype=torch.float64)
-    return out
+    """[N, 4] float64 (x, y, w, h) pixel boxes of bool masks [N, H, W] (zeros when empty)."""
+    from po3d_ppl.perception.attributes import mask_boxes
+
+    corners = mask_boxes(masks)[0].double()  # (x0, y0, x1, y1), x1 and y1 exclusive
+    return torch.cat([corners[:, :2], corners[:, 2:] - corners[:, :2]], -1)
+
+
+def ownership_masks(ownership: torch.Tensor, n: int) -> torch.Tensor:
+    """[n, H, W] bool: each proposal's pixels of an ownership map [H, W] (proposal index, -1 none)."""
+    return ownership[None] == torch.arange(n, device=ownership.device)[:, None, None]
 
 
 def parse_objects(image, model: FeatureModel | None = None, config: ParserConfig | None = None,
@@ -1533,7 +1535,7 @@ def _record(accepted: list[Hypothesis], new_scores: list[float], tables: list, c
                                                - config.existence_threshold) + calibration.existence_bias
     size = torch.stack([t[2] for t in tables]) / calibration.size_temperature if n else \
         torch.zeros(0, 2, dtype=torch.float64)
-    masks = torch.stack([ownership == i for i in range(n)]) if n else torch.zeros(0, *ownership.shape, dtype=bool)
+    masks = ownership_masks(ownership, n)
     support = torch.tensor(config.azimuths, dtype=torch.float64).expand(n, k).clone()
     return ObjectProposals(
         existence_logodds=existence.reshape(n),
