@@ -103,6 +103,8 @@ def test_an_image_without_vehicles_gives_empty_evidence():
 def test_config_is_checked():
     with pytest.raises(Exception, match="projection_floor"):
         SceneParserConfig(projection_floor=0.7)
+    with pytest.raises(Exception, match="merge_max_distance"):
+        SceneParserConfig(merge_max_distance=0.0)
 
 
 def test_calibration_round_trips_and_is_checksummed(tmp_path):
@@ -203,3 +205,64 @@ def test_style_pose_hypotheses_is_checked():
     with pytest.raises(Exception, match="style_pose_hypotheses"):
         SceneParserConfig(style_pose_hypotheses=0)
     assert SceneParserConfig(style_pose_hypotheses=None).style_pose_hypotheses is None
+
+
+def _strip_proposals(n: int, ownership: torch.Tensor):
+    from po3d_ppl.perception.object_parser import ObjectProposals, ownership_masks, xywh_boxes
+
+    masks = ownership_masks(ownership, n)
+    return ObjectProposals(
+        existence_logodds=torch.arange(n, dtype=torch.float64), category_loglik=torch.zeros(n, 5, dtype=torch.float64),
+        pose_support=torch.zeros(n, 4, dtype=torch.float64), pose_loglik=torch.zeros(n, 5, 4, dtype=torch.float64),
+        size_loglik=torch.zeros(n, 2, dtype=torch.float64),
+        positions=torch.arange(3 * n, dtype=torch.float64).reshape(n, 3), depths=torch.arange(n, dtype=torch.float64),
+        rotations=torch.zeros(n, dtype=torch.float64), boxes=xywh_boxes(masks), masks=masks, ownership=ownership,
+        camera=CameraPrior(640, 480).base, poses=["a", "b", "c"][:n])
+
+
+def test_merged_proposals_pool_their_pixels_and_drop_the_folded_rows():
+    from po3d_ppl.errors import InputError
+    from po3d_ppl.perception.object_parser import merge_proposals
+
+    ownership = torch.full((4, 9), -1, dtype=torch.long)
+    ownership[:, 0:3], ownership[:, 3:6], ownership[1:3, 6:9] = 0, 1, 2  # 1 is the second half of 2's object
+    merged = merge_proposals(_strip_proposals(3, ownership), [0, 2, 2])
+    assert len(merged) == 2 and merged.poses == ["a", "c"]
+    assert merged.existence_logodds.tolist() == [0.0, 2.0] and merged.depths.tolist() == [0.0, 2.0]
+    assert (merged.ownership[:, 3:6] == 1).all() and (merged.ownership[:, :3] == 0).all()
+    assert merged.boxes[1].tolist() == [3.0, 0.0, 6.0, 4.0]  # the union of the two halves
+    assert (merged.ownership == -1).sum() == (ownership == -1).sum()
+    with pytest.raises(InputError, match="into"):
+        merge_proposals(_strip_proposals(3, ownership), [1, 2, 2])  # 1 is folded into 2, so nothing may go to 1
+
+
+def _two_halves_scene(colours: list[int], ground_x: list[float]):
+    """Three proposals side by side on a strip: 0 | 1 | 2, each touching the next (a stand-in for ParsedScene)."""
+    from types import SimpleNamespace
+
+    ownership = torch.full((4, 12), -1, dtype=torch.long)
+    ownership[:, 0:4], ownership[:, 4:8], ownership[:, 8:12] = 0, 1, 2
+    sedan = ontology.SUBTYPES.index("sedan")
+    subtype = torch.full((3, len(ontology.SUBTYPES)), -20.0, dtype=torch.float64)
+    subtype[:, sedan] = 0.0
+    colour = torch.full((3, len(ontology.COLORS)), -20.0, dtype=torch.float64)
+    colour[torch.arange(3), torch.tensor(colours)] = 0.0
+    positions = torch.tensor([[x, 0.0, 0.0] for x in ground_x], dtype=torch.float64)
+    evidence = SimpleNamespace(num_objects=3, subtype_loglik=subtype, color_loglik=colour, positions=positions,
+                               exist_logodds=torch.tensor([0.5, 3.0, 1.0], dtype=torch.float64))
+    return SimpleNamespace(evidence=evidence, proposals=SimpleNamespace(ownership=ownership),
+                           object_ids=ownership.numpy())
+
+
+def test_touching_proposals_of_one_category_and_colour_close_on_the_ground_are_one_object():
+    from po3d_ppl.perception.scene_parser import one_object_merges
+
+    config = SceneParserConfig()
+    # 0 and 1: red sedans 0.8 apart -> one object, kept as 1 (more likely to exist); 2 is blue
+    assert one_object_merges(_two_halves_scene([0, 0, 3], [0.0, 0.8, 1.6]), config) == [1, 1, 2]
+    # all red: 0, 1 and 2 chain into the likeliest
+    assert one_object_merges(_two_halves_scene([0, 0, 0], [0.0, 0.8, 1.6]), config) == [1, 1, 1]
+    # two red sedans side by side, farther apart than one object's halves: kept apart
+    assert one_object_merges(_two_halves_scene([0, 0, 3], [0.0, 2.0, 4.0]), config) is None
+    assert one_object_merges(_two_halves_scene([0, 0, 0], [0.0, 0.8, 1.6]),
+                             SceneParserConfig(merge_max_distance=None)) is None

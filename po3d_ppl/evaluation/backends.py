@@ -110,7 +110,8 @@ class SimulatedBackend:
 #: search names a region whose peak is blocked and fits that category's visible cells (``region_named_iou``).
 #: 11: a region proposal owns the pixels of its region that its mesh covers (``object_parser._claim_regions``).
 #: 12: masks and boxes redrawn by the most likely scene's subtype silhouettes (``scene_parser.seen_ownership``).
-EVIDENCE_VERSION = 12
+#: 13: touching proposals read as one object of one colour are merged (``scene_parser.one_object_merges``).
+EVIDENCE_VERSION = 13
 
 
 @dataclass(frozen=True)

@@ -1157,6 +1157,26 @@ def ownership_masks(ownership: torch.Tensor, n: int) -> torch.Tensor:
     return ownership[None] == torch.arange(n, device=ownership.device)[:, None, None]
 
 
+def merge_proposals(proposals: ObjectProposals, into: list[int]) -> ObjectProposals:
+    """``proposals`` with each proposal ``i`` whose ``into[i] != i`` folded into proposal ``into[i]`` (which must
+    keep itself: ``into[into[i]] == into[i]``): its pixels go to that one, and its rows leave every table. The kept
+    proposals keep their order and tables; masks and boxes are redrawn from the merged ownership."""
+    n = len(proposals)
+    if len(into) != n or any(not 0 <= t < n or into[t] != t for t in into):
+        raise InputError("into", f"must map each of the {n} proposals to one that keeps itself, got {into}")
+    kept = [i for i in range(n) if into[i] == i]
+    new_index = torch.full((n + 1,), -1, dtype=torch.int64)  # old index + 1 (0: background) -> new index
+    new_index[1:] = torch.tensor([kept.index(into[i]) for i in range(n)], dtype=torch.int64)
+    ownership = new_index.to(proposals.ownership.device)[proposals.ownership + 1]
+    rows = torch.tensor(kept, dtype=torch.int64)
+    tables = {name: getattr(proposals, name).index_select(0, rows.to(getattr(proposals, name).device))
+              for name in ("existence_logodds", "category_loglik", "pose_support", "pose_loglik", "size_loglik",
+                           "positions", "depths", "rotations")}
+    masks = ownership_masks(ownership, len(kept))
+    return replace(proposals, **tables, masks=masks, boxes=xywh_boxes(masks), ownership=ownership,
+                   poses=[proposals.poses[i] for i in kept] if proposals.poses else [])
+
+
 def parse_objects(image, model: FeatureModel | None = None, config: ParserConfig | None = None,
                   calibration: TableCalibration | None = None, background: BackgroundModel | None = None,
                   centres: CentreNet | None = None) -> ObjectProposals:
