@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 import torch
 
@@ -107,21 +108,28 @@ def test_certain_evidence_scores_perfectly_and_a_misread_is_counted():
     assert all(o.proposal >= 0 and o.azimuth_error < 1e-6 for o in outcome.objects if o.visible_pixels >= 200)
 
 
-def test_detection_failures_sort_misses_and_false_proposals_by_the_box_that_overlaps_them():
-    from po3d_ppl.evaluation.objects import detection_failures
+def _obj(i, box, proposal, pixels=500):
+    return ObjectOutcome("a.png", i, "car", pixels, 0.0, 5.0, proposal, box=box)
 
-    def obj(i, box, proposal, pixels=500):
-        return ObjectOutcome("a.png", i, "car", pixels, 0.0, 5.0, proposal, box=box)
 
-    objects = [obj(0, [0, 0, 10, 10], 0),  # found
-               obj(1, [8, 0, 10, 10], -1),  # beside it, inside proposal 0's wide box: merged
-               obj(2, [100, 0, 20, 10], -1),  # proposal 1 covers its left half only: wrong extent
-               obj(3, [300, 300, 10, 10], -1),  # nothing near: unseen
-               obj(4, [200, 0, 10, 10], -1, pixels=50)]  # under the pixel floor: not counted
+def _failing_image() -> ImageOutcome:
+    """One found object and one failure of every kind."""
+    objects = [_obj(0, [0, 0, 10, 10], 0),  # found
+               _obj(1, [8, 0, 10, 10], -1),  # beside it, inside proposal 0's wide box: merged
+               _obj(2, [100, 0, 20, 10], -1),  # proposal 1 covers its left half only: wrong extent
+               _obj(3, [300, 300, 10, 10], -1),  # nothing near: unseen
+               _obj(4, [200, 0, 10, 10], -1, pixels=50)]  # under the pixel floor: not counted
     proposals = [[0, 0, 18, 10], [100, 0, 8, 10], [2, 0, 10, 10], [500, 0, 10, 10]]
-    image = ImageOutcome("a.png", objects, proposals=4, matched_small=0, existence_logodds=[1.0] * 4,
-                         proposal_matched=[True, False, False, False], seconds=0.0, timings={},
-                         proposal_boxes=proposals)
+    return ImageOutcome("a.png", objects, proposals=4, matched_small=0, existence_logodds=[1.0] * 4,
+                        proposal_matched=[True, False, False, False], seconds=0.0, timings={},
+                        proposal_boxes=proposals)
+
+
+def test_detection_failures_sort_misses_and_false_proposals_by_the_box_that_overlaps_them():
+    from po3d_ppl.evaluation.objects import detection_failures, image_failures
+
+    obj, image = _obj, _failing_image()
+    assert image_failures(image).missed == {1: "merged", 2: "misboxed", 3: "unseen"}
     failures = detection_failures([image])
     assert failures["missed"] == {"merged": 1, "misboxed": 1, "unseen": 1}
     # proposal 2 overlaps the found object 0 (a duplicate), 1 the missed object 2, 3 nothing
@@ -129,3 +137,25 @@ def test_detection_failures_sort_misses_and_false_proposals_by_the_box_that_over
     old = ImageOutcome("a.png", [obj(0, [], -1)], 1, 0, [1.0], [False], 0.0, {})  # saved before boxes were kept
     assert detection_failures([old]) == {"missed": {"merged": 0, "misboxed": 0, "unseen": 0},
                                          "false_proposals": {"duplicate": 0, "misboxed": 0, "phantom": 0}}
+
+
+def test_the_failure_gallery_draws_the_worst_images_and_lists_them(tmp_path):
+    import cv2
+
+    from po3d_ppl.errors import InputError
+    from po3d_ppl.evaluation.failure_gallery import FALSE, MISSED, write_gallery
+
+    picture = tmp_path / "a.png"
+    cv2.imwrite(str(picture), np.full((400, 600, 3), 128, dtype=np.uint8))
+    found = [_obj(0, [0, 0, 10, 10], 0)]
+    clean = ImageOutcome("b.png", found, 1, 0, [1.0], [True], 0.0, {}, [[0, 0, 10, 10]])
+    index = write_gallery([clean, _failing_image()], [picture, picture], tmp_path / "gallery", images=5)
+    text = index.read_text()
+    assert "a_failures.png" in text and "b_failures" not in text  # only images with failures are drawn
+    assert "1 merged, 1 misboxed, 1 unseen" in text and "1 duplicate, 1 misboxed, 1 phantom" in text
+    drawn = cv2.imread(str(tmp_path / "gallery" / "a_failures.png"))
+    assert drawn.shape[0] > 400  # the legend band below the image
+    assert (drawn[300:311, 300] == MISSED).all(axis=-1).any()  # the unseen object's box edge, in red
+    assert (drawn[0:11, 500] == FALSE).all(axis=-1).any()  # the phantom proposal's box edge, in orange
+    with pytest.raises(InputError, match="image"):
+        write_gallery([_failing_image()], [tmp_path / "gone.png"], tmp_path / "other")

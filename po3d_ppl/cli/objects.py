@@ -181,11 +181,13 @@ _CACHE = typer.Option(None, "--cache", help="Evidence cache directory (shared wi
                                             "image`; default: DATA/eval_cache).")
 
 
-def evidence_figures(data: Path, split: str, limit: int | None, store, console, backend=None) -> dict:
+def evidence_figures(data: Path, split: str, limit: int | None, store, console, backend=None,
+                     gallery: Path | None = None, gallery_images: int = 12) -> dict:
     """Perception's figures on ``split`` from the evidence cache ``store`` (each image parsed once): attributes,
     parts and occlusion, the objects under the scene parser's camera, and the projected tables' calibration (each
     read as its posterior under the priors the image pipeline uses). ``backend``: a loaded ``ImageBackend`` to
-    reuse."""
+    reuse. ``gallery``: also draw the ``gallery_images`` images with the most detection failures there
+    (:mod:`po3d_ppl.evaluation.failure_gallery`)."""
     from po3d_ppl.evaluation.backends import ImageBackend
     from po3d_ppl.evaluation.evidence_scores import EvidenceCounts
     from po3d_ppl.evaluation.objects import EvidenceAsProposals, score_image, summarise
@@ -197,6 +199,12 @@ def evidence_figures(data: Path, split: str, limit: int | None, store, console, 
     for evidence, scene in _cached_evidence(data, split, limit, store, backend, console, "evidence"):
         counts.add(evidence, scene)
         outcomes.append(score_image(EvidenceAsProposals.of(evidence), scene, scene.image_filename, 0.0))
+    if gallery is not None:
+        from po3d_ppl.evaluation.failure_gallery import write_gallery
+
+        index = write_gallery(outcomes, [Path(data) / "images" / img.image for img in outcomes], gallery,
+                              gallery_images)
+        console.print(f"detection failures drawn: {index}", markup=False, highlight=False)
     return {"evidence": counts.figures(), "objects": summarise(outcomes),
             "projected_tables": measure(None, as_tensors(counts.entries)),
             "cache": {"hits": store.hits, "misses": store.misses}}
@@ -206,6 +214,10 @@ def eval_evidence_command(
     data: Path = _DATA, split: str = typer.Option("all", "--split", help="Split of --data (all: every image)."),
     limit: int = _LIMIT, threads: int = _THREADS, cache: Path = _CACHE,
     json_out: Path = typer.Option(None, "--json", help="Write the figures here."),
+    gallery: Path = typer.Option(None, "--gallery", help="Also draw the images with the most detection failures "
+                                                         "(missed objects and false proposals by kind) here, with "
+                                                         "an index.md."),
+    gallery_images: int = typer.Option(12, "--gallery-images", min=1, help="How many images --gallery draws."),
 ) -> None:
     """Perception's evidence against ground truth: attributes, parts and occlusion (evaluation.evidence_scores),
     the projected tables' calibration, and the object figures under the scene parser's camera, from the same
@@ -215,7 +227,8 @@ def eval_evidence_command(
 
     torch.set_num_threads(threads)
     console = Console()
-    figures = evidence_figures(data, split, limit, _evidence_cache(data, cache), console)
+    figures = evidence_figures(data, split, limit, _evidence_cache(data, cache), console, gallery=gallery,
+                               gallery_images=gallery_images)
     if json_out is not None:
         Path(json_out).write_text(json.dumps(figures, indent=1) + "\n")
     console.print_json(json.dumps(figures))

@@ -241,10 +241,21 @@ def summarise(outcomes: Sequence[ImageOutcome], min_pixels: int = 200, occluded_
     return figures
 
 
-def detection_failures(outcomes: Sequence[ImageOutcome], min_pixels: int = 200, near_iou: float = 0.1
-                       ) -> dict[str, dict[str, int]]:
-    """What went wrong with each missed object (>= ``min_pixels``) and each false proposal, by the box that
-    overlaps it most (IoU >= ``near_iou`` counts as overlapping):
+@dataclass(frozen=True)
+class ImageFailures:
+    """One image's detection failures by kind: missed object index -> kind, false proposal index -> kind."""
+
+    missed: dict[int, str]
+    false_proposals: dict[int, str]
+
+
+MISSED_KINDS = ("merged", "misboxed", "unseen")
+FALSE_KINDS = ("duplicate", "misboxed", "phantom")
+
+
+def image_failures(img: ImageOutcome, min_pixels: int = 200, near_iou: float = 0.1) -> ImageFailures | None:
+    """What went wrong with each missed object (>= ``min_pixels``) and each false proposal of one image, by the box
+    that overlaps it most (IoU >= ``near_iou`` counts as overlapping):
 
     - a missed object is ``merged`` when that proposal was matched to another object (one proposal took two
       objects, or an occluder's mask took a hidden object's pixels), ``misboxed`` when that proposal is unmatched
@@ -254,9 +265,9 @@ def detection_failures(outcomes: Sequence[ImageOutcome], min_pixels: int = 200, 
       ``duplicate`` when the object it overlaps most was matched by another proposal, ``misboxed`` when that object
       went unmatched, and a ``phantom`` when it overlaps none.
 
-    Outcomes saved before boxes were recorded carry none and are skipped."""
-    missed = {"merged": 0, "misboxed": 0, "unseen": 0}
-    false = {"duplicate": 0, "misboxed": 0, "phantom": 0}
+    None for an outcome saved before boxes were recorded."""
+    if len(img.proposal_boxes) != img.proposals or any(not o.box for o in img.objects):
+        return None
 
     def most_overlapping(box: Sequence[float], others: Sequence[Sequence[float]]) -> int:
         """Index of the box of ``others`` overlapping ``box`` most, -1 when none reaches ``near_iou``."""
@@ -264,19 +275,34 @@ def detection_failures(outcomes: Sequence[ImageOutcome], min_pixels: int = 200, 
         best = int(np.argmax(overlaps)) if overlaps else -1
         return best if best >= 0 and overlaps[best] >= near_iou else -1
 
+    matched_proposals = {o.proposal for o in img.objects if o.proposal >= 0}
+    missed = {}
+    for j, o in enumerate(img.objects):
+        if o.proposal < 0 and o.visible_pixels >= min_pixels:
+            best = most_overlapping(o.box, img.proposal_boxes)
+            missed[j] = "unseen" if best < 0 else "merged" if best in matched_proposals else "misboxed"
+    object_boxes = [o.box for o in img.objects]
+    false = {}
+    for k, box in enumerate(img.proposal_boxes):
+        if k not in matched_proposals:
+            best = most_overlapping(box, object_boxes)
+            false[k] = "phantom" if best < 0 else "duplicate" if img.objects[best].proposal >= 0 else "misboxed"
+    return ImageFailures(missed, false)
+
+
+def detection_failures(outcomes: Sequence[ImageOutcome], min_pixels: int = 200, near_iou: float = 0.1
+                       ) -> dict[str, dict[str, int]]:
+    """:func:`image_failures` counted by kind over ``outcomes`` (outcomes without boxes are skipped)."""
+    missed = dict.fromkeys(MISSED_KINDS, 0)
+    false = dict.fromkeys(FALSE_KINDS, 0)
     for img in outcomes:
-        if len(img.proposal_boxes) != img.proposals or any(not o.box for o in img.objects):
+        failures = image_failures(img, min_pixels, near_iou)
+        if failures is None:
             continue
-        matched_proposals = {o.proposal for o in img.objects if o.proposal >= 0}
-        for o in img.objects:
-            if o.proposal < 0 and o.visible_pixels >= min_pixels:
-                best = most_overlapping(o.box, img.proposal_boxes)
-                missed["unseen" if best < 0 else "merged" if best in matched_proposals else "misboxed"] += 1
-        object_boxes = [o.box for o in img.objects]
-        for k, box in enumerate(img.proposal_boxes):
-            if k not in matched_proposals:
-                best = most_overlapping(box, object_boxes)
-                false["phantom" if best < 0 else "duplicate" if img.objects[best].proposal >= 0 else "misboxed"] += 1
+        for kind in failures.missed.values():
+            missed[kind] += 1
+        for kind in failures.false_proposals.values():
+            false[kind] += 1
     return {"missed": missed, "false_proposals": false}
 
 
