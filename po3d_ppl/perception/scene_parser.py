@@ -283,7 +283,7 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
         parsed.timings["merge"] = time.perf_counter() - t0
         parsed.notes = before.notes + (f"{len(into) - len(set(into))} proposal(s) merged into a touching one read "
                                        "as the same object",)
-    parsed = _seen_as_read(parsed)
+    parsed = seen_as_read(parsed)
     parsed.timings["total"] = time.perf_counter() - start
     return parsed
 
@@ -353,7 +353,7 @@ def seen_ownership(ownership: torch.Tensor, object_ids: np.ndarray) -> torch.Ten
     return torch.where((ownership >= 0) & (ids >= 0), ids, ownership)
 
 
-def _seen_as_read(parsed: ParsedScene) -> ParsedScene:
+def seen_as_read(parsed: ParsedScene) -> ParsedScene:
     """``parsed`` with its evidence's masks and boxes redrawn from :func:`seen_ownership` (the tables were read
     with the object parser's masks; ``parsed.proposals`` keeps those)."""
     evidence = parsed.evidence

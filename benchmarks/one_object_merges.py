@@ -1,0 +1,82 @@
+"""The scene parser's merge of proposals read as one object, side by side: detection before and after it.
+
+Each image of ``--data`` is read once by the shipped models with the merge off (``SceneParserConfig(
+merge_max_distance=None)``), then :func:`~po3d_ppl.perception.scene_parser.one_object_merges` picks the pairs under
+the shipped settings (or ``--set FIELD=VALUE`` overrides of them) and the scene is read again without the folded
+proposals, as :func:`~po3d_ppl.perception.scene_parser.parse_scene` does. Both are scored against the scene file
+(for scoring only) by :mod:`po3d_ppl.evaluation.objects`: precision, recall, recall of objects >= 20% occluded,
+and the detection failures by kind.
+
+    python benchmarks/one_object_merges.py --data /work/data/val_s716 --limit 60
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+from dataset_args import dataset_parser
+
+
+def main() -> None:
+    parser = dataset_parser(__doc__)
+    parser.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
+                        help="override a SceneParserConfig merge_* field (repeatable), e.g. --set merge_min_colour=0.3")
+    args = parser.parse_args()
+
+    import torch
+    from rich.progress import track
+
+    from po3d_ppl.evaluation.objects import EvidenceAsProposals, score_image, summarise
+    from po3d_ppl.perception.image_input import load_image
+    from po3d_ppl.perception.object_parser import merge_proposals
+    from po3d_ppl.perception.scene_parser import (
+        ImageParser,
+        SceneParserConfig,
+        one_object_merges,
+        read_scene,
+        seen_as_read,
+    )
+    from po3d_ppl.questions.dataset import load_dataset
+
+    overrides = {}
+    for item in args.set:
+        name, _, text = item.partition("=")
+        if not name.startswith("merge_") or name not in SceneParserConfig.__dataclass_fields__:
+            raise SystemExit(f"not a SceneParserConfig merge_* field: {name!r}")
+        overrides[name] = None if text.lower() == "none" else type(getattr(SceneParserConfig(), name) or 1.0)(text)
+    merging = replace(SceneParserConfig(), **overrides)
+    torch.set_num_threads(args.threads)
+    dataset = load_dataset(args.data)
+    reader = ImageParser.load(config=SceneParserConfig(merge_max_distance=None))
+    before, after, merged, seconds = [], [], 0, []
+    for index in track(dataset.split_indices(args.split)[: args.limit], description="parsing"):
+        scene = dataset.scene(index)
+        parsed = reader.parse(dataset.image_path(index))
+        before.append(score_image(EvidenceAsProposals.of(parsed.evidence), scene, str(index), 0.0))
+        start = time.perf_counter()
+        into = one_object_merges(parsed, merging)
+        if into is not None:
+            merged += len(into) - len(set(into))
+            parsed = seen_as_read(read_scene(load_image(dataset.image_path(index)),
+                                             merge_proposals(parsed.proposals, into), reader.attributes,
+                                             reader.viewpoint, reader.projection_calibration, merging))
+            seconds.append(time.perf_counter() - start)
+        after.append(score_image(EvidenceAsProposals.of(parsed.evidence), scene, str(index), 0.0))
+    print(f"{len(before)} images of {args.data}; {merged} proposal(s) merged on {len(seconds)} image(s)"
+          + (f", {sum(seconds) / len(seconds):.2f} s a merge (read again)" if seconds else ""))
+    a, b = summarise(before), summarise(after)
+    print(f"{'':28s} {'merge off':>12s} {'merge on':>12s}")
+    rows = [("proposals", a["proposals"], b["proposals"]), ("precision", a["precision"], b["precision"]),
+            ("recall", a["recall"], b["recall"]),
+            ("recall, >= 20% occluded", a["occluded_20pct"]["recall"], b["occluded_20pct"]["recall"])]
+    for name, x, y in rows:
+        print(f"{name:28s} {x:12.3f} {y:12.3f}" if isinstance(x, float) else f"{name:28s} {x:12d} {y:12d}")
+    for group in ("missed", "false_proposals"):
+        for kind in a["detection_failures"][group]:
+            print(f"{group + ': ' + kind:28s} {a['detection_failures'][group][kind]:12d} "
+                  f"{b['detection_failures'][group][kind]:12d}")
+
+
+if __name__ == "__main__":
+    main()
