@@ -75,7 +75,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from functools import lru_cache
 
 import numpy as np
@@ -1169,9 +1169,9 @@ def merge_proposals(proposals: ObjectProposals, into: list[int]) -> ObjectPropos
     new_index[1:] = torch.tensor([kept.index(into[i]) for i in range(n)], dtype=torch.int64)
     ownership = new_index.to(proposals.ownership.device)[proposals.ownership + 1]
     rows = torch.tensor(kept, dtype=torch.int64)
-    tables = {name: getattr(proposals, name).index_select(0, rows.to(getattr(proposals, name).device))
-              for name in ("existence_logodds", "category_loglik", "pose_support", "pose_loglik", "size_loglik",
-                           "positions", "depths", "rotations")}
+    redrawn = ("masks", "boxes", "ownership")  # per-pixel or derived from it: rebuilt below
+    tables = {f.name: value.index_select(0, rows.to(value.device)) for f in fields(ObjectProposals)
+              if f.name not in redrawn and isinstance(value := getattr(proposals, f.name), torch.Tensor)}
     masks = ownership_masks(ownership, len(kept))
     return replace(proposals, **tables, masks=masks, boxes=xywh_boxes(masks), ownership=ownership,
                    poses=[proposals.poses[i] for i in kept] if proposals.poses else [])
