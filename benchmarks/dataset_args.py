@@ -17,17 +17,23 @@ def dataset_parser(doc: str) -> argparse.ArgumentParser:
     return parser
 
 
-def parser_overrides(settings: list[str]) -> dict:
-    """``ParserConfig`` fields from ``FIELD=VALUE`` items: ``none`` gives None, a bool field reads true/false (or
-    1/0, yes/no), a field whose default is None a float, any other its default's type."""
-    from po3d_ppl.perception.object_parser import ParserConfig
+def add_overrides_option(parser: argparse.ArgumentParser, what: str, example: str) -> None:
+    """The repeatable ``--set FIELD=VALUE`` option, overriding fields of ``what`` (e.g. ``ParserConfig``)."""
+    parser.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
+                        help=f"override a {what} field (repeatable), e.g. --set {example}")
 
-    default = ParserConfig()
+
+def config_overrides(settings: list[str], config_class: type, prefix: str = "") -> dict:
+    """Fields of the dataclass ``config_class`` (those starting with ``prefix``) from ``FIELD=VALUE`` items:
+    ``none`` gives None, a bool field reads true/false (or 1/0, yes/no), a field whose default is None a float, any
+    other its default's type."""
+    default = config_class()
     overrides = {}
     for item in settings:
         name, _, text = item.partition("=")
-        if name not in ParserConfig.__dataclass_fields__:
-            raise SystemExit(f"unknown ParserConfig field {name!r}")
+        if name not in config_class.__dataclass_fields__ or not name.startswith(prefix):
+            raise SystemExit(f"unknown {config_class.__name__} field {name!r}"
+                             + (f" (only {prefix}* fields here)" if prefix else ""))
         current = getattr(default, name)
         if text.lower() == "none":
             overrides[name] = None
@@ -36,3 +42,10 @@ def parser_overrides(settings: list[str]) -> dict:
         else:
             overrides[name] = float(text) if current is None else type(current)(text)
     return overrides
+
+
+def parser_overrides(settings: list[str]) -> dict:
+    """``ParserConfig`` fields from ``FIELD=VALUE`` items (:func:`config_overrides`)."""
+    from po3d_ppl.perception.object_parser import ParserConfig
+
+    return config_overrides(settings, ParserConfig)

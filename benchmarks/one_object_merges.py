@@ -15,13 +15,12 @@ from __future__ import annotations
 import time
 from dataclasses import replace
 
-from dataset_args import dataset_parser
+from dataset_args import add_overrides_option, config_overrides, dataset_parser
 
 
 def main() -> None:
     parser = dataset_parser(__doc__)
-    parser.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
-                        help="override a SceneParserConfig merge_* field (repeatable), e.g. --set merge_min_colour=0.3")
+    add_overrides_option(parser, "SceneParserConfig merge_*", "merge_min_colour=0.3")
     args = parser.parse_args()
 
     import torch
@@ -39,13 +38,7 @@ def main() -> None:
     )
     from po3d_ppl.questions.dataset import load_dataset
 
-    overrides = {}
-    for item in args.set:
-        name, _, text = item.partition("=")
-        if not name.startswith("merge_") or name not in SceneParserConfig.__dataclass_fields__:
-            raise SystemExit(f"not a SceneParserConfig merge_* field: {name!r}")
-        overrides[name] = None if text.lower() == "none" else type(getattr(SceneParserConfig(), name) or 1.0)(text)
-    merging = replace(SceneParserConfig(), **overrides)
+    merging = replace(SceneParserConfig(), **config_overrides(args.set, SceneParserConfig, prefix="merge_"))
     torch.set_num_threads(args.threads)
     dataset = load_dataset(args.data)
     reader = ImageParser.load(config=SceneParserConfig(merge_max_distance=None))

@@ -15,13 +15,12 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from dataset_args import dataset_parser, parser_overrides
+from dataset_args import add_overrides_option, dataset_parser, parser_overrides
 
 
 def main() -> None:
     parser = dataset_parser(__doc__)
-    parser.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
-                        help="override a ParserConfig field (repeatable), e.g. --set region_min_score=50")
+    add_overrides_option(parser, "ParserConfig", "region_min_score=50")
     args = parser.parse_args()
 
     import numpy as np
