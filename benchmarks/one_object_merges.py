@@ -48,7 +48,7 @@ def main() -> None:
         parsed = reader.parse(dataset.image_path(index))
         before.append(score_image(EvidenceAsProposals.of(parsed.evidence), scene, str(index), 0.0))
         start = time.perf_counter()
-        into = one_object_merges(parsed, merging)
+        into = one_object_merges(parsed.evidence, merging)
         if into is not None:
             merged += len(into) - len(set(into))
             parsed = seen_as_read(read_scene(load_image(dataset.image_path(index)),

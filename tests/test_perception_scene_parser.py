@@ -236,9 +236,11 @@ def test_merged_proposals_pool_their_pixels_and_drop_the_folded_rows():
         merge_proposals(_strip_proposals(3, ownership), [1, 2, 2])  # 1 is folded into 2, so nothing may go to 1
 
 
-def _two_halves_scene(colours: list[int], ground_x: list[float]):
-    """Three proposals side by side on a strip: 0 | 1 | 2, each touching the next (a stand-in for ParsedScene)."""
+def _strip_evidence(colours: list[int], ground_x: list[float]):
+    """Three proposals side by side on a strip: 0 | 1 | 2, each touching the next (a stand-in for SceneEvidence)."""
     from types import SimpleNamespace
+
+    from po3d_ppl.perception.object_parser import ownership_masks
 
     ownership = torch.full((4, 12), -1, dtype=torch.long)
     ownership[:, 0:4], ownership[:, 4:8], ownership[:, 8:12] = 0, 1, 2
@@ -248,10 +250,9 @@ def _two_halves_scene(colours: list[int], ground_x: list[float]):
     colour = torch.full((3, len(ontology.COLORS)), -20.0, dtype=torch.float64)
     colour[torch.arange(3), torch.tensor(colours)] = 0.0
     positions = torch.tensor([[x, 0.0, 0.0] for x in ground_x], dtype=torch.float64)
-    evidence = SimpleNamespace(num_objects=3, subtype_loglik=subtype, color_loglik=colour, positions=positions,
-                               exist_logodds=torch.tensor([0.5, 3.0, 1.0], dtype=torch.float64))
-    return SimpleNamespace(evidence=evidence, proposals=SimpleNamespace(ownership=ownership),
-                           object_ids=ownership.numpy())
+    return SimpleNamespace(num_objects=3, subtype_loglik=subtype, color_loglik=colour, positions=positions,
+                           exist_logodds=torch.tensor([0.5, 3.0, 1.0], dtype=torch.float64),
+                           masks=ownership_masks(ownership, 3))
 
 
 def test_touching_proposals_of_one_category_and_colour_close_on_the_ground_are_one_object():
@@ -259,10 +260,10 @@ def test_touching_proposals_of_one_category_and_colour_close_on_the_ground_are_o
 
     config = SceneParserConfig()
     # 0 and 1: red sedans 0.8 apart -> one object, kept as 1 (more likely to exist); 2 is blue
-    assert one_object_merges(_two_halves_scene([0, 0, 3], [0.0, 0.8, 1.6]), config) == [1, 1, 2]
+    assert one_object_merges(_strip_evidence([0, 0, 3], [0.0, 0.8, 1.6]), config) == [1, 1, 2]
     # all red: 0, 1 and 2 chain into the likeliest
-    assert one_object_merges(_two_halves_scene([0, 0, 0], [0.0, 0.8, 1.6]), config) == [1, 1, 1]
+    assert one_object_merges(_strip_evidence([0, 0, 0], [0.0, 0.8, 1.6]), config) == [1, 1, 1]
     # two red sedans side by side, farther apart than one object's halves: kept apart
-    assert one_object_merges(_two_halves_scene([0, 0, 3], [0.0, 2.0, 4.0]), config) is None
-    assert one_object_merges(_two_halves_scene([0, 0, 0], [0.0, 0.8, 1.6]),
+    assert one_object_merges(_strip_evidence([0, 0, 3], [0.0, 2.0, 4.0]), config) is None
+    assert one_object_merges(_strip_evidence([0, 0, 0], [0.0, 0.8, 1.6]),
                              SceneParserConfig(merge_max_distance=None)) is None

@@ -16,6 +16,7 @@ import numpy as np
 
 from po3d_ppl.errors import InputError
 from po3d_ppl.evaluation.objects import ImageFailures, ImageOutcome, image_failures
+from po3d_ppl.world.contact_sheet import write_png
 
 #: BGR colours (OpenCV draws in BGR).
 FOUND, PROPOSAL, MISSED, FALSE = (0, 170, 0), (230, 120, 0), (0, 0, 230), (0, 140, 255)
@@ -82,7 +83,7 @@ def write_gallery(outcomes: Sequence[ImageOutcome], image_paths: Sequence[Path],
         if picture is None:
             raise InputError("image", f"cannot read {image_paths[i]} (moved or not an image?)")
         name = f"{Path(outcomes[i].image).stem}_failures.png"
-        cv2.imwrite(str(out / name), draw_failures(picture, outcomes[i], failures))
+        write_png(out / name, draw_failures(picture, outcomes[i], failures))
         rows.append(f"| {outcomes[i].image} | {_counted(failures.missed.values())} | "
                     f"{_counted(failures.false_proposals.values())} | ![{name}]({name}) |")
     lines = ["# Detection failures", "",

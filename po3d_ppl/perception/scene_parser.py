@@ -274,22 +274,23 @@ def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = N
         parsed.timings["objects.regions"] = time.perf_counter() - t0
         parsed.notes += (f"{grown.from_regions} proposal(s) from foreground the first reading left unexplained "
                          "(existence from their score there; pose not refined)",)
-    into = one_object_merges(parsed, config)
+    parsed = seen_as_read(parsed)
+    into = one_object_merges(parsed.evidence, config)
     if into is not None:  # read once more without the duplicates (their occlusion of the kept ones goes too)
         t0, before = time.perf_counter(), parsed
-        parsed = read_scene(img, merge_proposals(before.proposals, into), attributes, viewpoint,
-                            projection_calibration, config)
+        parsed = seen_as_read(read_scene(img, merge_proposals(before.proposals, into), attributes, viewpoint,
+                                         projection_calibration, config))
         parsed.timings.update({k: v for k, v in before.timings.items() if k not in parsed.timings})
         parsed.timings["merge"] = time.perf_counter() - t0
         parsed.notes = before.notes + (f"{len(into) - len(set(into))} proposal(s) merged into a touching one read "
                                        "as the same object",)
-    parsed = seen_as_read(parsed)
     parsed.timings["total"] = time.perf_counter() - start
     return parsed
 
 
-def one_object_merges(parsed: ParsedScene, config: SceneParserConfig) -> list[int] | None:
-    """Per proposal, the proposal it is one object with (itself if none); None if no proposal merges.
+def one_object_merges(evidence: SceneEvidence, config: SceneParserConfig) -> list[int] | None:
+    """Per proposal of ``evidence`` (its masks as :func:`seen_as_read` redraws them), the proposal it is one object
+    with (itself if none); None if no proposal merges.
 
     The search proposes one object twice in two ways: a second peak on part of an object already found (a
     *duplicate*), and an object split into two halves that each fit a smaller hypothesis (a jet's nose and tail,
@@ -301,11 +302,10 @@ def one_object_merges(parsed: ParsedScene, config: SceneParserConfig) -> list[in
     boxes beforehand, dropping the colour test lost recall (0.931 / 0.945: distinct objects of one category side
     by side), and a ground distance of 2 merged more of them too. About one wrong merge a seed remains (two brown
     school buses side by side on 712)."""
-    evidence = parsed.evidence
     n = evidence.num_objects
-    if config.merge_max_distance is None or n < 2 or parsed.object_ids is None:
+    if config.merge_max_distance is None or n < 2 or evidence.masks is None:
         return None
-    masks = ownership_masks(seen_ownership(parsed.proposals.ownership, parsed.object_ids), n).float()
+    masks = evidence.masks.float()
     reach = 2 * config.merge_touch_px + 1
     grown = torch.nn.functional.max_pool2d(masks[None], reach, stride=1, padding=config.merge_touch_px)[0]
     touching = (grown.flatten(1) @ masks.flatten(1).T) > 0  # [N, N]
