@@ -47,7 +47,7 @@ def test_integer_support_reaches_the_largest_count():
 
 def test_bad_parameters_and_files_are_typed_errors(tmp_path):
     from po3d_ppl.model_store import write_entry
-    from po3d_ppl.reasoning.answer_calibration import FILE, MODEL_NAME
+    from po3d_ppl.reasoning.answer_calibration import FILE, MODEL_NAME, model_name
 
     with pytest.raises(InputError, match="temperature"):
         TypeCalibration(0.0, 0.1)
@@ -57,9 +57,19 @@ def test_bad_parameters_and_files_are_typed_errors(tmp_path):
     calibration = AnswerCalibration({"Bool": TypeCalibration(1.5, 0.3), "Integer": TypeCalibration(2.0, 0.1)})
     write_entry(MODEL_NAME, [calibration.save(tmp_path)], tmp_path, command="test")
     assert load_answer_calibration(tmp_path) == calibration
+    assert load_answer_calibration(tmp_path, "soft") is None  # a baseline's is its own file
+    soft = AnswerCalibration({"Bool": TypeCalibration(0.7, 0.05)})
+    write_entry(model_name("soft"), [soft.save(tmp_path, "soft")], tmp_path, command="test")
+    assert (tmp_path / "answer_calibration_soft.json").is_file()
+    assert load_answer_calibration(tmp_path, "soft") == soft and load_answer_calibration(tmp_path) == calibration
+    with pytest.raises(InputError, match="method"):
+        model_name("../soft")
     (tmp_path / FILE).write_text((tmp_path / FILE).read_text().replace("1.5", "2.5"))
     with pytest.raises(ModelFileError, match="sha256"):
         load_answer_calibration(tmp_path)
+    (tmp_path / "answer_calibration_soft.json").unlink()
+    with pytest.raises(ModelFileError, match="--method soft"):
+        load_answer_calibration(tmp_path, "soft")
 
 
 def _overconfident_records(n: int, seed: int) -> list[QuestionRecord]:
@@ -89,7 +99,23 @@ def test_fit_recovers_overconfidence_and_the_calibrated_variant_is_better_on_new
     raw, calibrated = calibration_report(held_out, "ours"), calibration_report(held_out, CALIBRATED)
     assert calibrated.accuracy == raw.accuracy  # monotone: the top answer never changes
     assert calibrated.ece < 0.05 < raw.ece
-    assert variants_of(("ours", "soft"), calibrated=True) == ("ours", CALIBRATED, "ours_joint", "soft")
+    assert variants_of(("ours", "soft"), calibrated=("ours",)) == ("ours", CALIBRATED, "ours_joint", "soft")
+    assert variants_of(("ours", "soft"), calibrated=("ours", "soft")) == (
+        "ours", CALIBRATED, "ours_joint", "soft", "soft_calibrated")
+
+
+def test_a_baseline_is_fitted_and_recalibrated_like_ours():
+    """A baseline's calibration is fitted on its own answers, and recalibrates those, not ours."""
+    records = _overconfident_records(400, 0)
+    for record in records:  # the baseline says what ours says, surer still
+        record.predictions["soft"] = Prediction(tuple((a, min(1.0, p * 1.02)) for a, p in
+                                                      record.predictions["ours"].probs), 0.0)
+        record.predictions["ours"] = Prediction(((record.item.truth, 1.0),), 0.0)  # ours is right and sure
+    calibration, _ = fit(records, "soft")
+    assert calibration.types["Bool"].temperature > 1.0 or calibration.types["Bool"].smoothing > 0
+    record = records[0]
+    assert recalibrated(record, calibration, "soft") != record.predictions["soft"]
+    assert recalibrated(record, calibration, "soft").top == record.predictions["soft"].top
 
 
 def test_brier_grid_is_the_brier_score_of_the_recalibrated_distribution():

@@ -26,5 +26,9 @@ def test_report_writes_every_section_and_the_command_that_made_it(shared_dataset
     payload = json.loads(out.with_suffix(".json").read_text())
     methods = [row["method"] for row in payload["calibration"]]
     assert methods[:2] == ["ours", "ours_calibrated"] and "thresholded" in methods and "oracle" in methods
+    assert "soft_calibrated" in methods and "thresholded_calibrated" in methods  # the shipped baselines' maps
+    assert "(each recalibrated on the validation seeds)" in text
+    table1 = text.split("## Accuracy")[1].split("## Difficulty")[0]
+    assert "| ours_calibrated |" in table1 and "soft_calibrated" not in table1  # only the calibration table
     assert {row["priors"] for row in payload["priors"]} == {"hand-set", "fitted (shipped)"}
     assert payload["vqa"]["images"] == 1 and payload["perception"]["cache"]["misses"] == 1

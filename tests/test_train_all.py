@@ -32,6 +32,8 @@ MODELS = {
     "projection_calibration": ("projection_calibration.safetensors",),
     "priors": ("priors.json",),
     "answer_calibration": ("answer_calibration.json",),
+    "answer_calibration_soft": ("answer_calibration_soft.json",),
+    "answer_calibration_thresholded": ("answer_calibration_thresholded.json",),
 }
 
 
@@ -185,6 +187,11 @@ def test_full_scale_repeats_the_shipped_commands(tmp_path):
     # the answer calibration reads as many validation seeds as the shipped fit (its --cache is not an option)
     answer_words = shlex.split(shipped["answer_calibration"]["command"])
     assert sum(w == "--data" for w in answer_words) == sum(w == "--data" for w in ours["answer calibration"])
+    for method in ("soft", "thresholded"):  # the baselines' calibrations, fitted the same way
+        words = shlex.split(shipped[f"answer_calibration_{method}"]["command"])
+        assert _options(words)["--method"] == _options(ours[f"answer calibration ({method})"])["--method"] == method
+        assert [w for k, w in itertools.pairwise(words) if k == "--data"] == \
+            [w for k, w in itertools.pairwise(answer_words) if k == "--data"]
     built = {(d.seed, d.scenes) for d in FULL.datasets}
     recorded_builds = set()
     for entry in shipped.values():

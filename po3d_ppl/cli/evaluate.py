@@ -76,13 +76,13 @@ def make_backend(perception: str, noise: float, seed: int, model_dir: Path | Non
 def _run(data: Path, split: str, methods: str, noise: float, seed: int, limit, cache: Path | None, parse: bool,
          device: str, threads: int, console, label: str, perception: str = "simulated", semantics: str = "intended",
          priors: str = "shipped", model_dir: Path | None = None, recalibrate: bool = True, backend=None):
-    """(dataset, run, cache) of one evaluation; with image evidence, ``ours`` is also reported recalibrated by the
-    shipped answer calibration (``ours_calibrated``), when one is shipped. ``backend``: an already made
+    """(dataset, run, cache) of one evaluation; with image evidence, each method with a shipped answer calibration
+    is also reported recalibrated by it (``ours_calibrated``, ``soft_calibrated``, ...). ``backend``: an already made
     :func:`make_backend` to reuse (its models are read once)."""
     import torch
 
     from po3d_ppl.evaluation.cache import EvidenceCache
-    from po3d_ppl.evaluation.runner import evaluate, parse_methods
+    from po3d_ppl.evaluation.runner import CALIBRATABLE, evaluate, parse_methods
     from po3d_ppl.questions.dataset import load_dataset
     from po3d_ppl.reasoning.answer_calibration import load_answer_calibration
 
@@ -90,14 +90,15 @@ def _run(data: Path, split: str, methods: str, noise: float, seed: int, limit, c
     chosen = parse_methods(methods)
     dataset = load_dataset(data)
     backend = backend or make_backend(perception, noise, seed, model_dir)
-    calibration = None
-    if recalibrate and perception == "image" and "ours" in chosen:
-        calibration = load_answer_calibration(model_dir)
+    calibrations = {}
+    if recalibrate and perception == "image":  # every calibration is fitted on the image's evidence
+        calibrations = {m: c for m in chosen if m in CALIBRATABLE
+                        for c in [load_answer_calibration(model_dir, m)] if c is not None}
     store = EvidenceCache(cache if cache is not None else Path(data) / "eval_cache")
     with _progress(console, label) as bar:
         task = bar.add_task(label, total=None)
         run = evaluate(dataset, split, backend, chosen, cache=store, limit=limit, parse=parse, device=device,
-                       priors=resolve_priors(priors, model_dir), answer_calibration=calibration,
+                       priors=resolve_priors(priors, model_dir), answer_calibrations=calibrations,
                        progress=lambda done, total: bar.update(task, completed=done, total=total),
                        semantics=semantics)
     return dataset, run, store
@@ -211,16 +212,19 @@ def train_answer_calibration_command(
     perception: str = typer.Option("image", "--perception", help="Evidence the calibration is for: image (the "
                                    "shipped perception; what the pipeline applies it to) or simulated."),
     noise: float = _NOISE, seed: int = _SEED, priors: str = _PRIORS,
-    out: Path = typer.Option(None, "--out", help="Model directory to write answer_calibration.json and its manifest "
+    out: Path = typer.Option(None, "--out", help="Model directory to write the calibration file and its manifest "
                                                  "entry into (default: the shipped models/)."),
     model_dir: Path = typer.Option(None, "--model-dir", help="The perception models and priors whose answers to "
                                                              "calibrate (default: the shipped models/)."),
     objective: str = typer.Option("nll", "--objective", help="Proper scoring rule the fit minimises per answer "
                                                              "type: nll, or brier (the full distribution's)."),
+    method: str = typer.Option("ours", "--method", help="Whose answers to calibrate: ours (what the pipeline "
+                               "returns), or a baseline (soft, thresholded), which the evaluation then also reports "
+                               "recalibrated, for a like-for-like ECE comparison."),
 ) -> None:
     """Fit the answer calibration (a temperature and a smoothing per answer type) on a VALIDATION dataset's
-    questions answered by ours from the image, and ship it: the pipeline applies it to every answer from an image.
-    Never fit it on the split you report."""
+    questions answered from the image, and ship it: the pipeline applies ours to every answer from an image; a
+    baseline's is applied by the evaluation only. Never fit it on the split you report."""
     import shlex
 
     from rich.console import Console
@@ -228,31 +232,35 @@ def train_answer_calibration_command(
     from po3d_ppl.cli._common import build_command
     from po3d_ppl.evaluation.answer_calibration import check_objective, fit
     from po3d_ppl.evaluation.calibration import calibration_report
-    from po3d_ppl.evaluation.runner import CALIBRATED, recalibrated
+    from po3d_ppl.errors import InputError
+    from po3d_ppl.evaluation.runner import CALIBRATABLE, calibrated_variant, recalibrated
     from po3d_ppl.model_store import models_dir, write_entry
-    from po3d_ppl.reasoning.answer_calibration import MODEL_NAME
+    from po3d_ppl.reasoning.answer_calibration import PIPELINE_METHOD, model_name
 
     check_objective(objective, "--objective")  # before the hours of answering, not after
+    if method not in CALIBRATABLE:
+        raise InputError("--method", f"unknown {method!r}; choose from {', '.join(CALIBRATABLE)}")
     console = Console()
     backend = make_backend(perception, noise, seed, model_dir)  # one model load for every dataset
     records, images, manifests = [], 0, []
     for dataset_dir in data:
-        dataset, run, _ = _run(dataset_dir, split, "ours", noise, seed, limit, cache, False, device, threads, console,
+        dataset, run, _ = _run(dataset_dir, split, method, noise, seed, limit, cache, False, device, threads, console,
                                f"answer calibration ({dataset_dir.name})", perception, priors=priors,
                                model_dir=model_dir, recalibrate=False, backend=backend)
         records += run.records
         images += run.images
         manifests.append(dataset.manifest)
-    calibration, per_type = fit(records, objective=objective)
+    calibration, per_type = fit(records, method, objective=objective)
     for record in records:
-        record.predictions[CALIBRATED] = recalibrated(record, calibration)
-    before, after = calibration_report(records, "ours"), calibration_report(records, CALIBRATED)
+        record.predictions[calibrated_variant(method)] = recalibrated(record, calibration, method)
+    before, after = calibration_report(records, method), calibration_report(records, calibrated_variant(method))
     directory = Path(out) if out is not None else models_dir()
     directory.mkdir(parents=True, exist_ok=True)
     words = ["po3d", "train", "answer-calibration"]
     for dataset_dir in data:
         words += ["--data", str(dataset_dir)]
     words += ["--split", split, "--perception", perception, "--priors", priors, "--objective", objective]
+    words += ["--method", method] if method != PIPELINE_METHOD else []
     words += ["--limit", str(limit)] if limit else []
     words += ["--noise", str(noise), "--seed", str(seed)] if perception == "simulated" else []
     words += ["--out", str(out)] if out is not None else []
@@ -261,14 +269,15 @@ def train_answer_calibration_command(
     metrics = {"questions": len(records), "images": images, "types": per_type,
                "fit_split": {"before": {k: before.row()[k] for k in ("accuracy", "mean_confidence", "ece", "nll")},
                              "after": {k: after.row()[k] for k in ("accuracy", "mean_confidence", "ece", "nll")}}}
-    write_entry(MODEL_NAME, [calibration.save(directory)], directory, command=shlex.join(words),
+    saved = calibration.save(directory, method)
+    write_entry(model_name(method), [saved], directory, command=shlex.join(words),
                 data_commands=[build_command(d, m) for d, m in zip(data, manifests)],
                 data_seed=[m.get("seed") for m in manifests], data_config=[m.get("config") for m in manifests],
                 metrics=metrics)
     console.print_json(json.dumps({"calibration": calibration.to_dict(), **metrics}))
     fitted_on = ", ".join(map(str, data))
-    console.print(f"answer calibration -> {directory / 'answer_calibration.json'} (fitted on {fitted_on}; report "
-                  "it on another seed)", markup=False, highlight=False)
+    console.print(f"answer calibration of {method} -> {saved} (fitted on {fitted_on}; report it on another seed)",
+                  markup=False, highlight=False)
 
 
 def ceilings_command(

@@ -68,6 +68,8 @@ _MODELS = {
     "projection_calibration": ("projection", "projection calibration"),
     "priors": ("priors", "fitted scene priors"),
     "answer_calibration": ("answer_calibration", "answer calibration"),
+    "answer_calibration_thresholded": ("answer_calibration", "thresholded baseline's answer calibration"),
+    "answer_calibration_soft": ("answer_calibration", "soft baseline's answer calibration"),
 }
 #: models each stage reads from --out (written by an earlier stage)
 _NEEDS_MODELS = {"centres": ("perception_features",),
@@ -247,6 +249,7 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
     from po3d_ppl.cli.perception import train_perception_command
     from po3d_ppl.cli.priors import train_priors
     from po3d_ppl.cli.viewpoint import train_viewpoint_command
+    from po3d_ppl.evaluation.runner import CALIBRATABLE
 
     def path(name: str) -> Path:
         return data / name
@@ -283,10 +286,12 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
                             **scale.projection, threads=threads, out=out, model_dir=out)],
         "priors": [step("priors", train_priors, ["po3d", "train", "priors"], data=sets("priors")[0], split="train",
                         out=out)],
-        "answer_calibration": [step("answer calibration", train_answer_calibration_command,
-                                    ["po3d", "train", "answer-calibration"],
+        "answer_calibration": [step("answer calibration" + ("" if method == "ours" else f" ({method})"),
+                                    train_answer_calibration_command, ["po3d", "train", "answer-calibration"],
                                     data=sets("answer_calibration"), **scale.answer_calibration,
-                                    threads=threads, out=out, model_dir=out)],
+                                    threads=threads, out=out, model_dir=out,
+                                    **({} if method == "ours" else {"method": method}))
+                               for method in CALIBRATABLE],
     }
     return steps
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import time
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -20,13 +20,22 @@ from po3d_ppl.evaluation.backends import EvidenceBackend, Observation
 from po3d_ppl.evaluation.cache import EvidenceCache
 from po3d_ppl.evaluation.difficulty import trace_difficulty
 
-#: Methods a run can ask for; ``ours`` is reported twice (given the presuppositions, and the joint), and a third
-#: time, recalibrated, when the run has an answer calibration (``ours_calibrated``).
+#: Methods a run can ask for; ``ours`` is reported twice (given the presuppositions, and the joint). A method
+#: with an answer calibration in the run is reported once more, recalibrated (``ours_calibrated``, ...).
 METHODS = ("ours", "thresholded", "soft", "oracle")
+#: The methods an answer calibration can be fitted for (the oracle's answers are certain and right).
+CALIBRATABLE = ("ours", "thresholded", "soft")
 #: The reported variants, in table order.
 VARIANTS = {"ours": ("ours", "ours_joint"), "thresholded": ("thresholded",), "soft": ("soft",),
             "oracle": ("oracle",)}
-CALIBRATED = "ours_calibrated"
+
+
+def calibrated_variant(method: str) -> str:
+    """The variant name of ``method``'s answers through its answer calibration."""
+    return f"{method}_calibrated"
+
+
+CALIBRATED = calibrated_variant("ours")
 #: The predicted "answer" of a distribution whose largest mass is the invalid outcome.
 INVALID = "<invalid>"
 #: The paper's Table 1 columns, in order.
@@ -44,10 +53,11 @@ def parse_methods(text: str) -> tuple[str, ...]:
     return methods
 
 
-def variants_of(methods: Sequence[str], calibrated: bool = False) -> tuple[str, ...]:
-    """The reported variants of ``methods``; ``calibrated`` adds ``ours_calibrated`` after ``ours``."""
-    extra = {"ours": (CALIBRATED,)} if calibrated else {}
-    return tuple(v for m in methods for v in (VARIANTS[m][:1] + extra.get(m, ()) + VARIANTS[m][1:]))
+def variants_of(methods: Sequence[str], calibrated: Collection[str] = ()) -> tuple[str, ...]:
+    """The reported variants of ``methods``; each method in ``calibrated`` gets its recalibrated variant right
+    after its own (``ours``, ``ours_calibrated``, ``ours_joint``, ...)."""
+    return tuple(v for m in methods
+                 for v in (VARIANTS[m][:1] + ((calibrated_variant(m),) if m in calibrated else ()) + VARIANTS[m][1:]))
 
 
 def table1_column(file: str, program: Sequence[dict]) -> str | None:
@@ -178,13 +188,14 @@ def evaluate(dataset, split: str, backend: EvidenceBackend, methods: Sequence[st
              cache: EvidenceCache | None = None, limit: int | None = None, parse: bool = False, parser=None,
              priors=None, budget=None, device: str = "cpu",
              progress: Callable[[int, int], None] | None = None, semantics: str = "intended",
-             answer_calibration=None, proposal_priors: bool = True,
+             answer_calibrations: Mapping[str, Any] | None = None, proposal_priors: bool = True,
              evidence_transform: Callable[[Any, Any], Any] | None = None,
              files: Sequence[str] | None = None) -> EvalRun:
     """Answer the split's questions (the first ``limit`` images) by every method on one evidence per image, under
     ``semantics`` (``public``: the dataset must be built with it; the evidence reads the public annotation).
-    With an ``answer_calibration`` (:class:`~po3d_ppl.reasoning.answer_calibration.AnswerCalibration`), ``ours``
-    is also reported recalibrated, as ``ours_calibrated``. ``proposal_priors`` lets the back-end set the priors
+    ``answer_calibrations`` maps methods of the run to their
+    :class:`~po3d_ppl.reasoning.answer_calibration.AnswerCalibration`; each such method is also reported
+    recalibrated (:func:`calibrated_variant`: ``ours_calibrated``, ...). ``proposal_priors`` lets the back-end set the priors
     its calibration knows for its proposals (``EvidenceBackend.scene_priors``); False uses ``priors`` as given.
     ``evidence_transform(evidence, scene)``, when given, edits each image's evidence after calibration (an analysis
     that substitutes truth, :mod:`po3d_ppl.evaluation.ceilings`; the cache keeps the untouched evidence).
@@ -209,7 +220,12 @@ def evaluate(dataset, split: str, backend: EvidenceBackend, methods: Sequence[st
     once = _OnceParser(parser or _default_parser()) if parse else None
     timings = {"perception_s": 0.0, "parse_s": 0.0, "posterior_s": 0.0,
                **{f"inference_{m}_s": 0.0 for m in methods if m != "oracle"}}
-    variants = variants_of(methods, answer_calibration is not None)
+    calibrations = {m: c for m, c in (answer_calibrations or {}).items() if m in methods}
+    unknown = [m for m in calibrations if m not in CALIBRATABLE]
+    if unknown:
+        raise InputError("answer_calibrations", f"no calibration applies to {', '.join(unknown)}; "
+                                                f"choose from {', '.join(CALIBRATABLE)}")
+    variants = variants_of(methods, calibrations)
     failures = {v: 0 for v in variants}
     records: list[QuestionRecord] = []
     identity = {**backend.identity(), "semantics": semantics} if public else backend.identity()
@@ -228,9 +244,9 @@ def evaluate(dataset, split: str, backend: EvidenceBackend, methods: Sequence[st
         timings["posterior_s"] += time.perf_counter() - start
         for item in by_image[index]:
             record = _answer(item, scene, reasoner, methods, once, budget, timings, failures, semantics)
-            if answer_calibration is not None and "ours" in record.predictions:
-                record.predictions[CALIBRATED] = recalibrated(record, answer_calibration)
-                failures[CALIBRATED] += record.predictions["ours"].failure is not None
+            for method, calibration in calibrations.items():
+                record.predictions[calibrated_variant(method)] = recalibrated(record, calibration, method)
+                failures[calibrated_variant(method)] += record.predictions[method].failure is not None
             records.append(record)
         if progress is not None:
             progress(done + 1, len(images))
@@ -238,14 +254,15 @@ def evaluate(dataset, split: str, backend: EvidenceBackend, methods: Sequence[st
                    {"hits": cache.hits, "misses": cache.misses}, failures, asdict(priors))
 
 
-def recalibrated(record: QuestionRecord, calibration) -> Prediction:
-    """``ours`` of ``record`` recalibrated by an :class:`~po3d_ppl.reasoning.answer_calibration.AnswerCalibration`."""
+def recalibrated(record: QuestionRecord, calibration, method: str = "ours") -> Prediction:
+    """``method``'s answer of ``record`` recalibrated by an
+    :class:`~po3d_ppl.reasoning.answer_calibration.AnswerCalibration`."""
     from po3d_ppl.reasoning import AnswerDistribution
 
-    ours = record.predictions["ours"]
-    if not ours.probs:
-        return ours
-    dist = AnswerDistribution(dict(ours.probs), ours.invalid, "ours", record.answer_type)
+    answer = record.predictions[method]
+    if not answer.probs:
+        return answer
+    dist = AnswerDistribution(dict(answer.probs), answer.invalid, method, record.answer_type)
     return Prediction.of(calibration.apply(dist))
 
 

@@ -17,6 +17,10 @@ answer and the invalid mass are close, tempering can move the best answer below 
 and the accuracy, change in those few questions (seed 720: Part+Occ. 66.87% raw, 66.92% recalibrated). The pipeline
 applies the shipped calibration (``models/answer_calibration.json``) to the distributions it returns; the raw
 posterior stays available (``Pipeline(answer_calibration=None)``) and the evaluation reports both.
+
+**Baselines.** A calibration fitted the same way for a baseline method (``models/answer_calibration_soft.json``,
+``..._thresholded.json``; :func:`model_name`) is never used to answer: the evaluation applies it so that the
+methods' ECEs are also compared like for like, each through a map fitted on the same validation questions.
 """
 
 from __future__ import annotations
@@ -31,8 +35,15 @@ from po3d_ppl.reasoning.answer import AnswerDistribution
 
 MODEL_NAME = "answer_calibration"
 FILE = "answer_calibration.json"
-RETRAIN = ("refit it with `po3d train answer-calibration --data VAL --perception image` (a validation dataset) or "
-           "`git checkout models/`")
+#: The method whose answers the pipeline returns; its calibration keeps the plain names above.
+PIPELINE_METHOD = "ours"
+
+
+def _retrain(method: str) -> str:
+    """How to remake ``method``'s calibration file, for the errors that find it missing or unreadable."""
+    option = "" if method == PIPELINE_METHOD else f" --method {method}"
+    return (f"refit it with `po3d train answer-calibration --data VAL --perception image{option}` (a validation "
+            "dataset) or `git checkout models/`")
 
 
 #: Integer answers are smoothed over 0..max(this, the largest answer with mass): the most objects a scene holds.
@@ -92,23 +103,35 @@ class AnswerCalibration:
     def to_dict(self) -> dict[str, dict[str, float]]:
         return {name: {"temperature": c.temperature, "smoothing": c.smoothing} for name, c in self.types.items()}
 
-    def save(self, directory: Path) -> Path:
-        path = Path(directory) / FILE
+    def save(self, directory: Path, method: str = PIPELINE_METHOD) -> Path:
+        path = Path(directory) / f"{model_name(method)}.json"
         path.write_text(json.dumps(self.to_dict(), indent=1) + "\n")
         return path
 
 
-def load_answer_calibration(directory: Path | str | None = None) -> AnswerCalibration | None:
-    """The shipped calibration (checked against the manifest's sha256), or None when none is listed."""
+def model_name(method: str = PIPELINE_METHOD) -> str:
+    """The manifest name (and file stem) of ``method``'s calibration: ``answer_calibration`` for the pipeline's
+    method, ``answer_calibration_<method>`` for a baseline's."""
+    if not method.isidentifier():
+        raise InputError("method", f"must be a method name such as 'ours' or 'soft', got {method!r}")
+    return MODEL_NAME if method == PIPELINE_METHOD else f"{MODEL_NAME}_{method}"
+
+
+def load_answer_calibration(directory: Path | str | None = None, method: str = PIPELINE_METHOD
+                            ) -> AnswerCalibration | None:
+    """The shipped calibration of ``method``'s answers (checked against the manifest's sha256), or None when
+    none is listed."""
     from po3d_ppl.model_store import model_files, read_manifest
 
     directory = Path(directory) if directory is not None else None
-    if MODEL_NAME not in read_manifest(directory):
+    name = model_name(method)
+    if name not in read_manifest(directory):
         return None
-    path = model_files(MODEL_NAME, directory, RETRAIN)[FILE]
+    retrain = _retrain(method)
+    path = model_files(name, directory, retrain)[f"{name}.json"]
     try:
         record = json.loads(path.read_text())
         return AnswerCalibration({str(name): TypeCalibration(float(c["temperature"]), float(c["smoothing"]))
                                   for name, c in record.items()})
     except (ValueError, TypeError, KeyError, AttributeError, InputError) as exc:
-        raise ModelFileError(f"cannot read the answer calibration from {path} ({exc}); {RETRAIN}") from None
+        raise ModelFileError(f"cannot read the answer calibration from {path} ({exc}); {retrain}") from None
