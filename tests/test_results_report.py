@@ -32,3 +32,18 @@ def test_report_writes_every_section_and_the_command_that_made_it(shared_dataset
     assert "| ours_calibrated |" in table1 and "soft_calibrated" not in table1  # only the calibration table
     assert {row["priors"] for row in payload["priors"]} == {"hand-set", "fitted (shipped)"}
     assert payload["vqa"]["images"] == 1 and payload["perception"]["cache"]["misses"] == 1
+
+
+def test_the_sweep_check_names_the_noise_levels_where_ours_does_not_win():
+    from po3d_ppl.cli.results import _sweep_check
+    from po3d_ppl.evaluation.calibration import SweepPoint
+
+    def level(noise, ours_ece, soft_ece):
+        return [SweepPoint(noise, "ours", 0.9, ours_ece, 10), SweepPoint(noise, "soft", 0.8, soft_ece, 10),
+                SweepPoint(noise, "thresholded", 0.5, 0.4, 10)]
+
+    exact = [SweepPoint(0.0, m, 1.0, 0.0, 10) for m in ("ours", "soft", "thresholded")]
+    assert _sweep_check(exact + level(0.1, 0.02, 0.03) + level(0.2, 0.03, 0.05))[1:] == (True, "at 2 of 2 noise levels")
+    name, met, detail = _sweep_check(exact + level(0.1, 0.04, 0.03) + level(0.2, 0.03, 0.05))
+    assert not met and detail == "at 1 of 2 noise levels (not at 0.1)"
+    assert not _sweep_check(exact)[1]  # noise 0 alone measures nothing
