@@ -206,9 +206,11 @@ def _answer_tables_run(run):
     answer nearly as their raw ones do (a monotone map) and are there for the calibration comparison."""
     from dataclasses import replace
 
-    from po3d_ppl.evaluation.runner import CALIBRATED
+    from po3d_ppl.evaluation.runner import CALIBRATABLE, calibrated_variant
+    from po3d_ppl.reasoning.answer_calibration import PIPELINE_METHOD
 
-    return replace(run, variants=tuple(v for v in run.variants if v == CALIBRATED or not v.endswith("_calibrated")))
+    baselines = {calibrated_variant(m) for m in CALIBRATABLE if m != PIPELINE_METHOD}
+    return replace(run, variants=tuple(v for v in run.variants if v not in baselines))
 
 
 def _ece_checks(by_variant: dict) -> list[tuple[str, bool, str]]:

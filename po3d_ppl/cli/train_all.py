@@ -250,6 +250,7 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
     from po3d_ppl.cli.priors import train_priors
     from po3d_ppl.cli.viewpoint import train_viewpoint_command
     from po3d_ppl.evaluation.runner import CALIBRATABLE
+    from po3d_ppl.reasoning.answer_calibration import PIPELINE_METHOD
 
     def path(name: str) -> Path:
         return data / name
@@ -286,11 +287,11 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
                             **scale.projection, threads=threads, out=out, model_dir=out)],
         "priors": [step("priors", train_priors, ["po3d", "train", "priors"], data=sets("priors")[0], split="train",
                         out=out)],
-        "answer_calibration": [step("answer calibration" + ("" if method == "ours" else f" ({method})"),
+        "answer_calibration": [step("answer calibration" + ("" if method == PIPELINE_METHOD else f" ({method})"),
                                     train_answer_calibration_command, ["po3d", "train", "answer-calibration"],
                                     data=sets("answer_calibration"), **scale.answer_calibration,
                                     threads=threads, out=out, model_dir=out,
-                                    **({} if method == "ours" else {"method": method}))
+                                    **({} if method == PIPELINE_METHOD else {"method": method}))
                                for method in CALIBRATABLE],
     }
     return steps
