@@ -16,6 +16,7 @@ import time
 from dataclasses import replace
 
 from dataset_args import add_overrides_option, config_overrides, dataset_parser
+from detection_table import print_detection_table
 
 
 def main() -> None:
@@ -58,17 +59,7 @@ def main() -> None:
         after.append(score_image(EvidenceAsProposals.of(parsed.evidence), scene, str(index), 0.0))
     print(f"{len(before)} images of {args.data}; {merged} proposal(s) merged on {len(seconds)} image(s)"
           + (f", {sum(seconds) / len(seconds):.2f} s a merge (read again)" if seconds else ""))
-    a, b = summarise(before), summarise(after)
-    print(f"{'':28s} {'merge off':>12s} {'merge on':>12s}")
-    rows = [("proposals", a["proposals"], b["proposals"]), ("precision", a["precision"], b["precision"]),
-            ("recall", a["recall"], b["recall"]),
-            ("recall, >= 20% occluded", a["occluded_20pct"]["recall"], b["occluded_20pct"]["recall"])]
-    for name, x, y in rows:
-        print(f"{name:28s} {x:12.3f} {y:12.3f}" if isinstance(x, float) else f"{name:28s} {x:12d} {y:12d}")
-    for group in ("missed", "false_proposals"):
-        for kind in a["detection_failures"][group]:
-            print(f"{group + ': ' + kind:28s} {a['detection_failures'][group][kind]:12d} "
-                  f"{b['detection_failures'][group][kind]:12d}")
+    print_detection_table(summarise(before), summarise(after), "merge off", "merge on", failures=True)
 
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from dataset_args import add_overrides_option, dataset_parser, parser_overrides
+from detection_table import print_detection_table
 
 
 def main() -> None:
@@ -64,13 +65,7 @@ def main() -> None:
                     added["no object" if j is None else "an object found already" if j in had
                           else "a missed object"] += 1
     print(f"{len(first)} images of {args.data}")
-    print(f"{'':28s} {'first reading':>14s} {'with second':>12s}")
-    a, b = summarise(first), summarise(second)
-    rows = [("proposals", a["proposals"], b["proposals"]), ("precision", a["precision"], b["precision"]),
-            ("recall", a["recall"], b["recall"]),
-            ("recall, >= 20% occluded", a["occluded_20pct"]["recall"], b["occluded_20pct"]["recall"])]
-    for name, x, y in rows:
-        print(f"{name:28s} {x:14.3f} {y:12.3f}" if isinstance(x, float) else f"{name:28s} {x:14d} {y:12d}")
+    print_detection_table(summarise(first), summarise(second), "first reading", "with second")
     print("second-search proposals matched to " + ", ".join(f"{k}: {v}" for k, v in added.items()))
 
 
