@@ -28,6 +28,9 @@ def test_report_writes_every_section_and_the_command_that_made_it(shared_dataset
     assert methods[:2] == ["ours", "ours_calibrated"] and "thresholded" in methods and "oracle" in methods
     assert "soft_calibrated" in methods and "thresholded_calibrated" in methods  # the shipped baselines' maps
     assert "(each recalibrated on the validation seeds)" in text
+    assert "### Ours against the baselines, paired" in text and "95% intervals over images" in text
+    pairs = {(d["method"], d["baseline"], d["metric"]) for d in payload["differences"]}
+    assert ("ours", "soft", "ece") in pairs and ("ours_calibrated", "thresholded_calibrated", "accuracy") in pairs
     table1 = text.split("## Accuracy")[1].split("## Difficulty")[0]
     assert "| ours_calibrated |" in table1 and "soft_calibrated" not in table1  # only the calibration table
     assert {row["priors"] for row in payload["priors"]} == {"hand-set", "fitted (shipped)"}

@@ -166,6 +166,7 @@ def calibration_command(
     from po3d_ppl.evaluation.plots import noise_sweep_plot, reliability_diagrams
     from po3d_ppl.evaluation.report import noise_sweep, sweep_markdown, write_text
     from po3d_ppl.evaluation.runner import parse_methods
+    from po3d_ppl.evaluation.significance import DIFFERENCES_NOTE, against_baselines, differences_markdown
 
     try:
         noises = [float(x) for x in sweep.split(",") if x.strip()]
@@ -179,11 +180,15 @@ def calibration_command(
     out = Path(out)
     reliability_diagrams(reports, out / "reliability.png", f"split {split}, {source}, "
                                                            f"{len(run.records)} questions")
+    differences = against_baselines(run.records, run.variants)
     md = [f"# Calibration: split {split}, {source}, {run.images} images, {len(run.records)} questions", "",
           calibration_markdown(reports), "", "![reliability](reliability.png)", ""]
+    if differences:
+        md += ["## Ours against the baselines, paired", "", DIFFERENCES_NOTE, "", differences_markdown(differences),
+               ""]
     payload = {"split": split, "noise": noise if perception == "simulated" else None, "backend": run.backend,
-               "reports": [
-        {**r.row(), "bins": [b.__dict__ for b in r.bins]} for r in reports]}
+               "reports": [{**r.row(), "bins": [b.__dict__ for b in r.bins]} for r in reports],
+               "differences": [d.__dict__ for d in differences]}
     if noises:
         with _progress(console, "noise sweep") as bar:
             task = bar.add_task("sweep", total=None)
@@ -195,11 +200,13 @@ def calibration_command(
         md += ["## Noise sweep", "", sweep_markdown(points), "", "![noise sweep](noise_sweep.png)", ""]
         payload["sweep"] = [p.__dict__ for p in points]
     md += [("The perception evidence's tables are temperature-scaled on a validation seed (object tables: "
-            "`po3d train calibration`; attribute heads: `po3d train attributes`), not on the test split. Not done "
-            "yet: fitted `ScenePriors` against the hand-set ones."), ""]
+            "`po3d train calibration`; attribute heads: `po3d train attributes`), not on the test split. Fitted "
+            "`ScenePriors` against the hand-set ones: `po3d eval report`."), ""]
     write_text(out / "calibration.json", json.dumps(payload, indent=1, default=str) + "\n")
     write_text(out / "calibration.md", "\n".join(md))
     console.print(calibration_markdown(reports), markup=False, highlight=False, soft_wrap=True)
+    if differences:
+        console.print(differences_markdown(differences), markup=False, highlight=False, soft_wrap=True)
     console.print(f"wrote {out / 'calibration.md'}", markup=False, highlight=False, soft_wrap=True)
 
 

@@ -156,6 +156,7 @@ def report_command(
     from po3d_ppl.evaluation.plots import difficulty_plot, noise_sweep_plot, reliability_diagrams
     from po3d_ppl.evaluation.report import difficulty_panels, noise_sweep, vqa_json, write_text
     from po3d_ppl.evaluation.runner import parse_methods
+    from po3d_ppl.evaluation.significance import against_baselines
 
     torch.set_num_threads(threads)
     console = Console()
@@ -189,12 +190,14 @@ def report_command(
         noise_sweep_plot(points, figures_dir / "noise_sweep.png", "simulated sensor: accuracy and ECE against noise")
     stage_seconds = _timings(dataset, backend.parser, timing_images) if timing_images else {}
     by_variant = {r.method: r for r in reports}
+    differences = against_baselines(run.records, run.variants)
     rows = table1(answers)
-    text = _markdown(command, answers, perception, rows, reports, by_variant, priors_md, points, stage_seconds,
-                     figures_dir.relative_to(out.parent), time.time() - started)
+    text = _markdown(command, answers, perception, rows, reports, by_variant, differences, priors_md, points,
+                     stage_seconds, figures_dir.relative_to(out.parent), time.time() - started)
     write_text(out, text)
     payload = {"command": command, "perception": perception, "vqa": vqa_json(run),
-               "calibration": [r.row() for r in reports], "priors": priors_rows,
+               "calibration": [r.row() for r in reports], "differences": [d.__dict__ for d in differences],
+               "priors": priors_rows,
                "sweep": [p.__dict__ for p in points], "stage_seconds": stage_seconds}
     write_text(out.with_suffix(".json"), json.dumps(payload, indent=1, default=str) + "\n")
     console.print(f"wrote {out} and {out.with_suffix('.json')} ({time.time() - started:.0f} s)", markup=False,
@@ -213,22 +216,30 @@ def _answer_tables_run(run):
     return replace(run, variants=tuple(v for v in run.variants if v not in baselines))
 
 
-def _ece_checks(by_variant: dict) -> list[tuple[str, bool, str]]:
+def _ece_checks(by_variant: dict, differences: list) -> list[tuple[str, bool, str]]:
     """The ECE comparison of the evaluation issue, raw posteriors against raw, and each method through its own
     answer calibration (fitted on the same validation questions) against the others': a baseline's raw ECE pays
-    for miscalibration a monotone map fitted on validation removes, so only the second is like for like."""
+    for miscalibration a monotone map fitted on validation removes, so only the second is like for like. Each
+    detail ends with the paired bootstrap intervals of the ECE differences (:mod:`po3d_ppl.evaluation.significance`),
+    so a gap the split cannot resolve reads as one."""
     from po3d_ppl.evaluation.runner import calibrated_variant
+
+    def intervals(method: str) -> str:
+        shown = [f"{d.method} - {d.baseline} {d.text()}" for d in differences
+                 if d.method == method and d.metric == "ece"]
+        return f"; differences, 95% intervals over images: {', '.join(shown)}" if shown else ""
 
     baselines = [v for v in ("thresholded", "soft") if v in by_variant]
     ours = by_variant["ours"]
     checks = [("ours beats them in ECE (raw posteriors)", all(ours.ece < by_variant[v].ece for v in baselines),
-               ", ".join(f"{v} {by_variant[v].ece:.4f}" for v in ["ours", *baselines]))]
+               ", ".join(f"{v} {by_variant[v].ece:.4f}" for v in ["ours", *baselines]) + intervals("ours"))]
     calibrated = [calibrated_variant(v) for v in ["ours", *baselines]]
     if all(v in by_variant for v in calibrated):
         mine, others = by_variant[calibrated[0]], [by_variant[v] for v in calibrated[1:]]
         checks.append(("ours beats them in ECE (each recalibrated on the validation seeds)",
                        all(mine.ece < other.ece for other in others),
-                       ", ".join(f"{by_variant[v].method} {by_variant[v].ece:.4f}" for v in calibrated)))
+                       ", ".join(f"{by_variant[v].method} {by_variant[v].ece:.4f}" for v in calibrated)
+                       + intervals(calibrated[0])))
     else:
         missing = ", ".join(v for v in calibrated if v not in by_variant)
         checks.append(("ours beats them in ECE (each recalibrated on the validation seeds)", False,
@@ -252,9 +263,10 @@ def _sweep_check(points) -> tuple[str, bool, str]:
     return name, not missed and bool(baselines), detail
 
 
-def _markdown(command, run, perception, rows, reports, by_variant, priors_md, points, stage_seconds, figures,
-              seconds) -> str:
+def _markdown(command, run, perception, rows, reports, by_variant, differences, priors_md, points, stage_seconds,
+              figures, seconds) -> str:
     from po3d_ppl.evaluation.calibration import calibration_markdown
+    from po3d_ppl.evaluation.significance import DIFFERENCES_NOTE, differences_markdown
     from po3d_ppl.evaluation.metrics import family_markdown, family_table, table1_markdown
     from po3d_ppl.evaluation.report import difficulty_markdown, difficulty_panels, sweep_markdown
 
@@ -268,7 +280,7 @@ def _markdown(command, run, perception, rows, reports, by_variant, priors_md, po
         ("test split >= 500 images", run.images >= 500, f"{run.images} images, {len(run.records)} questions"),
         ("ours beats thresholded and soft in accuracy", best_baseline is not None and ours.accuracy >
          best_baseline.accuracy, f"ours {ours.accuracy:.4f}, best baseline {best_baseline.accuracy:.4f}"),
-        *_ece_checks(by_variant),
+        *_ece_checks(by_variant, differences),
         *([_sweep_check(points)] if points else []),
         ("ECE <= 0.03 on perception evidence", cal is not None and cal.ece <= TARGET_ECE,
          f"raw posterior {ours.ece:.4f}; recalibrated {cal.ece:.4f}" if cal else "no answer calibration shipped"),
@@ -304,6 +316,8 @@ def _markdown(command, run, perception, rows, reports, by_variant, priors_md, po
               "never applies them, and the accuracy tables above leave them out (the map is monotone: it keeps the "
               "top answer but where that answer and the invalid mass are close).", "",
               calibration_markdown(reports), "", f"![reliability]({figures}/reliability.png)", "",
+              *(["### Ours against the baselines, paired", "", DIFFERENCES_NOTE, "", differences_markdown(differences),
+                 ""] if differences else []),
               "## Fitted against hand-set priors", "", priors_md, ""]
     if points:
         lines += ["## Noise sweep (simulated sensor on the true scenes)", "", sweep_markdown(points), "",
