@@ -200,3 +200,5 @@ def test_the_commands_write_their_reports(tiny, tmp_path):
     ece = {p["method"]: p["ece"] for p in cal["sweep"]}
     assert ece["ours"] < 1e-5 and ece["soft"] < 0.01  # soft's independence rules leave a little doubt
     assert (tmp_path / "cal" / "reliability.png").exists() and (tmp_path / "cal" / "noise_sweep.png").exists()
+    assert {(d["baseline"], d["metric"]) for d in cal["differences"]} == {("soft", "accuracy"), ("soft", "ece")}
+    assert "## Ours against the baselines, paired" in (tmp_path / "cal" / "calibration.md").read_text()

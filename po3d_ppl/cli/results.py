@@ -266,7 +266,7 @@ def _sweep_check(points) -> tuple[str, bool, str]:
 def _markdown(command, run, perception, rows, reports, by_variant, differences, priors_md, points, stage_seconds,
               figures, seconds) -> str:
     from po3d_ppl.evaluation.calibration import calibration_markdown
-    from po3d_ppl.evaluation.significance import DIFFERENCES_NOTE, differences_markdown
+    from po3d_ppl.evaluation.significance import differences_markdown, differences_note
     from po3d_ppl.evaluation.metrics import family_markdown, family_table, table1_markdown
     from po3d_ppl.evaluation.report import difficulty_markdown, difficulty_panels, sweep_markdown
 
@@ -316,7 +316,8 @@ def _markdown(command, run, perception, rows, reports, by_variant, differences, 
               "never applies them, and the accuracy tables above leave them out (the map is monotone: it keeps the "
               "top answer but where that answer and the invalid mass are close).", "",
               calibration_markdown(reports), "", f"![reliability]({figures}/reliability.png)", "",
-              *(["### Ours against the baselines, paired", "", DIFFERENCES_NOTE, "", differences_markdown(differences),
+              *(["### Ours against the baselines, paired", "", differences_note(differences), "",
+                 differences_markdown(differences),
                  ""] if differences else []),
               "## Fitted against hand-set priors", "", priors_md, ""]
     if points:

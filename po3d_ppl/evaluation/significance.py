@@ -24,11 +24,6 @@ from po3d_ppl.errors import InputError
 from po3d_ppl.evaluation.calibration import N_BINS, binned_calibration_error, top_answers
 from po3d_ppl.evaluation.runner import CALIBRATABLE, QuestionRecord, calibrated_variant
 
-#: What the report says above the table of differences.
-DIFFERENCES_NOTE = ("Differences (ours minus the baseline) over the same questions, with 95% percentile intervals "
-                    "from 1,000 bootstrap resamples of the images (all of an image's questions together: they "
-                    "share its evidence). 'not resolved': the interval contains 0, so this split cannot tell the "
-                    "two apart.")
 #: The metrics compared, and whether lower is better.
 METRICS = {"accuracy": False, "ece": True}
 
@@ -115,6 +110,15 @@ def against_baselines(records: Sequence[QuestionRecord], variants: Sequence[str]
     if all(v in variants for v in calibrated):
         out += paired_differences(records, calibrated[0], calibrated[1:], resamples, seed=seed)
     return out
+
+
+def differences_note(differences: Sequence[Difference]) -> str:
+    """What a reader needs above :func:`differences_markdown`'s table."""
+    first = differences[0]
+    return (f"Differences ({first.method} minus the baseline) over the same questions, with {100 * first.level:.0f}% "
+            f"percentile intervals from {first.resamples:,} bootstrap resamples of the images (all of an image's "
+            "questions together: they share its evidence). 'not resolved': the interval contains 0, so this split "
+            "cannot tell the two apart.")
 
 
 def differences_markdown(differences: Sequence[Difference]) -> str:
