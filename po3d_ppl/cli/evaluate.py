@@ -166,7 +166,7 @@ def calibration_command(
     from po3d_ppl.evaluation.plots import noise_sweep_plot, reliability_diagrams
     from po3d_ppl.evaluation.report import noise_sweep, sweep_markdown, write_text
     from po3d_ppl.evaluation.runner import parse_methods
-    from po3d_ppl.evaluation.significance import against_baselines, differences_markdown, differences_note
+    from po3d_ppl.evaluation.significance import against_baselines, differences_markdown
 
     try:
         noises = [float(x) for x in sweep.split(",") if x.strip()]
@@ -184,9 +184,7 @@ def calibration_command(
     md = [f"# Calibration: split {split}, {source}, {run.images} images, {len(run.records)} questions", "",
           calibration_markdown(reports), "", "![reliability](reliability.png)", ""]
     if differences:
-        md += ["## Ours against the baselines, paired", "", differences_note(differences), "",
-               differences_markdown(differences),
-               ""]
+        md += ["## Ours against the baselines, paired", "", differences_markdown(differences), ""]
     payload = {"split": split, "noise": noise if perception == "simulated" else None, "backend": run.backend,
                "reports": [{**r.row(), "bins": [b.__dict__ for b in r.bins]} for r in reports],
                "differences": [d.__dict__ for d in differences]}

@@ -225,9 +225,9 @@ def _ece_checks(by_variant: dict, differences: list) -> list[tuple[str, bool, st
     from po3d_ppl.evaluation.runner import calibrated_variant
 
     def intervals(method: str) -> str:
-        shown = [f"{d.method} - {d.baseline} {d.text()}" for d in differences
-                 if d.method == method and d.metric == "ece"]
-        return f"; differences, 95% intervals over images: {', '.join(shown)}" if shown else ""
+        shown = [d for d in differences if d.method == method and d.metric == "ece"]
+        return (f"; differences, {100 * shown[0].level:.0f}% intervals over images: "
+                + ", ".join(f"{d.method} - {d.baseline} {d.text()}" for d in shown)) if shown else ""
 
     baselines = [v for v in ("thresholded", "soft") if v in by_variant]
     ours = by_variant["ours"]
@@ -266,7 +266,7 @@ def _sweep_check(points) -> tuple[str, bool, str]:
 def _markdown(command, run, perception, rows, reports, by_variant, differences, priors_md, points, stage_seconds,
               figures, seconds) -> str:
     from po3d_ppl.evaluation.calibration import calibration_markdown
-    from po3d_ppl.evaluation.significance import differences_markdown, differences_note
+    from po3d_ppl.evaluation.significance import differences_markdown
     from po3d_ppl.evaluation.metrics import family_markdown, family_table, table1_markdown
     from po3d_ppl.evaluation.report import difficulty_markdown, difficulty_panels, sweep_markdown
 
@@ -316,9 +316,8 @@ def _markdown(command, run, perception, rows, reports, by_variant, differences, 
               "never applies them, and the accuracy tables above leave them out (the map is monotone: it keeps the "
               "top answer but where that answer and the invalid mass are close).", "",
               calibration_markdown(reports), "", f"![reliability]({figures}/reliability.png)", "",
-              *(["### Ours against the baselines, paired", "", differences_note(differences), "",
-                 differences_markdown(differences),
-                 ""] if differences else []),
+              *(["### Ours against the baselines, paired", "", differences_markdown(differences), ""]
+                if differences else []),
               "## Fitted against hand-set priors", "", priors_md, ""]
     if points:
         lines += ["## Noise sweep (simulated sensor on the true scenes)", "", sweep_markdown(points), "",

@@ -112,23 +112,22 @@ def against_baselines(records: Sequence[QuestionRecord], variants: Sequence[str]
     return out
 
 
-def differences_note(differences: Sequence[Difference]) -> str:
-    """What a reader needs above :func:`differences_markdown`'s table."""
-    first = differences[0]
-    return (f"Differences ({first.method} minus the baseline) over the same questions, with {100 * first.level:.0f}% "
-            f"percentile intervals from {first.resamples:,} bootstrap resamples of the images (all of an image's "
-            "questions together: they share its evidence). 'not resolved': the interval contains 0, so this split "
-            "cannot tell the two apart.")
-
-
 def differences_markdown(differences: Sequence[Difference]) -> str:
-    """One row per (method, baseline): each metric's difference and interval, and what the interval says."""
+    """What the intervals are, then one row per (method, baseline): each metric's difference and interval, and what
+    the interval says. Empty without differences."""
+    if not differences:
+        return ""
     verdict = {True: "better", False: "worse", None: "not resolved"}
     rows: dict[tuple[str, str], dict[str, Difference]] = defaultdict(dict)
     for d in differences:
         rows[d.method, d.baseline][d.metric] = d
-    level = differences[0].level if differences else 0.95
-    lines = [f"| method | baseline | accuracy difference [{100 * level:.0f}% interval] | | ECE difference | |",
+    first = differences[0]
+    level = f"{100 * first.level:.0f}%"
+    lines = [f"Differences ({first.method} minus the baseline) over the same questions, with {level} percentile "
+             f"intervals from {first.resamples:,} bootstrap resamples of the images (all of an image's questions "
+             "together: they share its evidence). 'not resolved': the interval contains 0, so this split cannot tell "
+             "the two apart.", "",
+             f"| method | baseline | accuracy difference [{level} interval] | | ECE difference | |",
              "|---|---|---|---|---|---|"]
     for (method, baseline), by_metric in rows.items():
         acc, ece = by_metric["accuracy"], by_metric["ece"]
