@@ -267,3 +267,57 @@ def test_touching_proposals_of_one_category_and_colour_close_on_the_ground_are_o
     assert one_object_merges(_strip_evidence([0, 0, 3], [0.0, 2.0, 4.0]), config) is None
     assert one_object_merges(_strip_evidence([0, 0, 0], [0.0, 0.8, 1.6]),
                              SceneParserConfig(merge_max_distance=None)) is None
+
+
+@dataclass
+class _PlacedProposals(_OneProposal):
+    """What :func:`estimate_camera_height` reads besides: ground positions under the base camera, and that camera."""
+
+    positions: torch.Tensor
+    camera: object
+
+    def __len__(self) -> int:
+        return int(self.masks.shape[0])
+
+
+def test_camera_height_is_read_from_object_sizes_despite_misplaced_bases():
+    """Two large trucks rendered with the camera 0.3 above its base height, their proposals' base points 4 px
+    off (as the object parser leaves them): the estimate lands near 0.3 when each candidate's silhouette is
+    compared at its best shift, and further off when it is compared where the base point puts it."""
+    from po3d_ppl.perception.image_input import backproject_to_plane
+    from po3d_ppl.perception.object_parser import yaw_of
+    from po3d_ppl.perception.scene_parser import SUBTYPES, estimate_camera_height, project_points
+
+    prior = CameraPrior(640, 480)
+    camera, base = prior.camera((0.0, 0.0, 0.3)), prior.base
+    support = torch.arange(24, dtype=torch.float64)[None].repeat(2, 1) * 15.0
+    places = [(1.0, -1.5, 3), (-1.5, 1.0, 20)]  # x, y, pose bin
+    specs = [ObjectSpec("truck", "gray", "rubber", "large", yaw_of(camera, x, y, float(support[0, k])), x, y)
+             for x, y, k in places]
+    shot = render_layout(specs, camera)
+    masks = torch.stack([torch.from_numpy(shot.object_ids == j) for j in range(2)])
+    pixels = project_points(camera, torch.tensor([[x, y, 0.0] for x, y, _ in places], dtype=torch.float64))[:, :2]
+    pixels = pixels + torch.tensor([[4.0, -3.0], [-4.0, 3.0]], dtype=torch.float64)
+    positions = torch.as_tensor(backproject_to_plane(base, pixels), dtype=torch.float64)
+    proposals = _PlacedProposals(masks, torch.from_numpy(shot.object_ids.astype(np.int64)), support, positions,
+                                 base)
+    subtype_ll = torch.full((2, len(SUBTYPES)), -30.0, dtype=torch.float64)
+    subtype_ll[:, SUBTYPES.index("truck")] = 0.0
+    size_ll = torch.tensor([[0.0, -30.0]] * 2, dtype=torch.float64)
+    pose_ll = torch.full((2, 5, 24), -30.0, dtype=torch.float64)
+    for i, (_, _, k) in enumerate(places):
+        pose_ll[i, :, k] = 0.0
+
+    @dataclass
+    class _Image:
+        size: tuple[int, int]
+        intrinsics: tuple
+
+    img = _Image((640, 480), prior.intrinsics)
+    errors = {}
+    for shift in (10, 0):
+        found, _ = estimate_camera_height(proposals, subtype_ll, size_ll, pose_ll, img,
+                                          SceneParserConfig(height_shift_px=shift))
+        errors[shift] = abs(found.camera_to_world[2][3] - camera.camera_to_world[2][3])
+    assert errors[10] < 0.05
+    assert errors[0] > errors[10]

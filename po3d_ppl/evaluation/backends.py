@@ -111,7 +111,9 @@ class SimulatedBackend:
 #: 11: a region proposal owns the pixels of its region that its mesh covers (``object_parser._claim_regions``).
 #: 12: masks and boxes redrawn by the most likely scene's subtype silhouettes (``scene_parser.seen_ownership``).
 #: 13: touching proposals read as one object of one colour are merged (``scene_parser.one_object_merges``).
-EVIDENCE_VERSION = 13
+#: 14: the camera height compares each candidate's silhouettes at their best shift
+#: (``SceneParserConfig.height_shift_px``).
+EVIDENCE_VERSION = 14
 
 
 @dataclass(frozen=True)

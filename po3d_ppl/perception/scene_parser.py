@@ -40,7 +40,7 @@ import torch
 from po3d_ppl import ontology
 from po3d_ppl.errors import InputError
 from po3d_ppl.evidence import DTYPE, NUM_STYLES, P, S, SceneEvidence, ScenePriors
-from po3d_ppl.perception.alignment import AlignmentConfig, align_silhouette
+from po3d_ppl.perception.alignment import AlignmentConfig, align_silhouette, best_shift
 from po3d_ppl.perception.image_input import ImageInput, load_image, project_points
 from po3d_ppl.perception.object_parser import (
     add_region_proposals,
@@ -85,6 +85,11 @@ class SceneParserConfig:
     estimate_height: bool = True
     height_candidates: int = 21
     min_height_pixels: int = 200
+    #: Each candidate height's silhouette is compared at its best image shift within this many pixels (0: where
+    #: its base pixel puts it). The proposals' base pixels are off by a few pixels, and unshifted that error
+    #: outweighs the size change between neighbouring heights: on 27 images of seed 712 the mean error of the
+    #: height offset fell from 0.106 to 0.046 with 10 (the camera's distance 2% -> 0.9% off).
+    height_shift_px: int = 10
     #: The viewpoint network's azimuth reading multiplies the render-and-compare pose table
     #: (:func:`~po3d_ppl.perception.viewpoint.combine_pose`): its exponent, and the temperature of the product,
     #: chosen on seed 712 by ``benchmarks/viewpoint_weight.py`` (lowest NLL of the true bin).
@@ -462,11 +467,6 @@ def _silhouette(spec, camera: Camera, shape: tuple[int, int]) -> np.ndarray:
     return out
 
 
-def _iou(a: np.ndarray, b: np.ndarray) -> float:
-    union = int((a | b).sum())
-    return int((a & b).sum()) / union if union else 0.0
-
-
 def estimate_camera_height(proposals, subtype_ll: torch.Tensor, size_ll: torch.Tensor, pose_ll: torch.Tensor,
                            img: ImageInput, config: SceneParserConfig) -> tuple[Camera, list[list[float]]]:
     """The camera's height offset that best fits the objects' sizes, and the proposals' ground positions under it.
@@ -474,10 +474,10 @@ def estimate_camera_height(proposals, subtype_ll: torch.Tensor, size_ll: torch.T
     Scaling the scene about the camera leaves the image unchanged, so the height shows only through objects of
     known size: each proposal's most likely subtype mesh (exact dimensions, unlike the category mesh that encloses
     every subtype) is placed under the same image point and pose at every candidate height of the camera prior,
-    and its silhouette compared (IoU) with the proposal's visible mask on the pixels no other proposal owns. The
-    IoU curves, weighted by subtype confidence, are summed over proposals and the peak refined by a parabola.
-    Measured on 20 images of seed 712 (11 candidates): correlation 0.80 with the true offset, mean error 0.145
-    against 0.245 for the base camera."""
+    and its silhouette compared (IoU, at its best shift within ``height_shift_px``) with the proposal's visible
+    mask on the pixels no other proposal owns. The IoU curves, weighted by subtype confidence, are summed over
+    proposals and the peak refined by a parabola. Measured on 27 images of seed 712 (21 candidates): mean error
+    0.046 (0.106 unshifted; the base camera's is about 0.25)."""
     from po3d_ppl.perception.image_input import CameraPrior, backproject_to_plane
 
     prior = CameraPrior.for_image(img)
@@ -499,7 +499,7 @@ def estimate_camera_height(proposals, subtype_ll: torch.Tensor, size_ll: torch.T
         for k, (cam, ground) in enumerate(zip(cameras, grounds)):
             x, y = float(ground[i, 0]), float(ground[i, 1])
             spec = _spec(SUBTYPES[s], size, x, y, yaw_of(cam, x, y, azimuth))
-            curve[k] = _iou(_silhouette(spec, cam, mask.shape) & free, mask)
+            curve[k] = best_shift(_silhouette(spec, cam, mask.shape), free, mask, config.height_shift_px)[1]
         total += confidence * curve
     if not total.any():
         return base, proposals.positions[:, :2].tolist()
