@@ -151,7 +151,8 @@ FULL = Scale(
     projection={"split": "all"},
     answer_calibration={"split": "all"},
     train_sets={"perception": ("train_s711",), "background": ("train_s711",), "priors": ("train_s711",),
-                "attributes": ("train_s711", "train_s714", "train_s715"), "viewpoint": ("train_s711", "train_s714"),
+                "attributes": ("train_s711", "train_s714", "train_s715"),
+                "viewpoint": ("train_s711", "train_s714", "train_s715"),
                 "centres": ("train_s711", "train_s714", "train_s715"),
                 # two validation seeds: one seed's accuracy differs from another's by a few points (the fit of
                 # 2026-12-02 used four; seeds 717 and 718 were not rebuilt for the refit on evidence version 6)
