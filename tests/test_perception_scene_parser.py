@@ -105,6 +105,8 @@ def test_config_is_checked():
         SceneParserConfig(projection_floor=0.7)
     with pytest.raises(Exception, match="merge_max_distance"):
         SceneParserConfig(merge_max_distance=0.0)
+    with pytest.raises(Exception, match="height_shift_px"):
+        SceneParserConfig(height_shift_px=-1)
 
 
 def test_calibration_round_trips_and_is_checksummed(tmp_path):

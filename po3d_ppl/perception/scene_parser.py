@@ -133,6 +133,8 @@ class SceneParserConfig:
     def __post_init__(self) -> None:
         if not (isinstance(self.pose_hypotheses, int) and self.pose_hypotheses >= 1):
             raise InputError("SceneParserConfig.pose_hypotheses", f"must be an integer >= 1, got {self.pose_hypotheses!r}")
+        if not (isinstance(self.height_shift_px, int) and self.height_shift_px >= 0):
+            raise InputError("SceneParserConfig.height_shift_px", f"must be an integer >= 0, got {self.height_shift_px!r}")
         if not 0.0 < self.projection_floor < 0.5:
             raise InputError("SceneParserConfig.projection_floor", f"must be in (0, 0.5), got {self.projection_floor}")
         if self.style_pose_hypotheses is not None and not (isinstance(self.style_pose_hypotheses, int)
