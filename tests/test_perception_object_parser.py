@@ -468,3 +468,35 @@ def test_a_region_proposal_owns_the_pixels_of_its_region_that_its_mesh_covers():
     assert (owned[2:6, 6:9] == 0).all()  # claimed but outside its mesh: the front proposal keeps them
     assert (owned[:2] == ownership[:2]).all() and (owned[6:] == ownership[6:]).all()
     assert (owned[:, -2:] == -1).all()
+
+
+def test_unexplained_thin_structure_is_one_region_of_its_own_pixels():
+    """A see-through object (a wheel of spokes) left unexplained: opening alone erases its one-pixel lines, so the
+    second search never sees it; closed first, its lines join into one region that holds only their pixels (not
+    the ground between them). A one-pixel sliver along an outline stays dropped either way."""
+    from dataclasses import replace
+
+    import cv2
+
+    from po3d_ppl.perception.object_parser import unexplained_regions
+
+    foreground = np.zeros((120, 160), dtype=np.uint8)
+    for angle in np.linspace(0.0, np.pi, 10, endpoint=False):  # a 40-pixel wheel of 10 spokes and its rim
+        dx, dy = 20 * np.cos(angle), 20 * np.sin(angle)
+        cv2.line(foreground, (int(50 - dx), int(60 - dy)), (int(50 + dx), int(60 + dy)), 1, 1)
+    cv2.circle(foreground, (50, 60), 20, 1, 1)
+    foreground[10, 100:150] = 1  # a sliver along some outline
+    foreground = foreground.astype(bool)
+    explained = np.full(foreground.shape, -1)
+    config = replace(ParserConfig(), region_min_pixels=100)
+    assert unexplained_regions(foreground, explained, replace(config, region_close_px=0)) == []
+    regions = unexplained_regions(foreground, explained, config)
+    assert len(regions) == 1
+    assert not (regions[0] & ~foreground).any()  # only the wheel's own pixels
+    assert regions[0][60, 30:71].sum() > 0 and not regions[0][10].any()
+    explained[:, :] = 0  # a proposal explains every pixel: nothing is left
+    assert unexplained_regions(foreground, explained, config) == []
+    from po3d_ppl.errors import InputError
+
+    with pytest.raises(InputError, match="region_close_px"):
+        ParserConfig(region_close_px=-3)
