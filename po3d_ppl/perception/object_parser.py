@@ -1378,10 +1378,12 @@ def unexplained_regions(foreground: np.ndarray, explained: np.ndarray | None, co
     unexplained foreground, largest first.
 
     Opening alone erased see-through objects: a bicycle's spokes and frame are lines a pixel or two wide, so a
-    missed bicycle left no region at all (3 of 35 missed objects on seed 712, none of them occluded). Closing first
-    joins such lines, and an object that its occluder splits, into one region; the region keeps only its own
-    pixels, not the ground the closing filled, since the attribute network names it and its proposal claims it.
-    An isolated sliver is a single strip that closing leaves thin, so the opening still removes it."""
+    missed bicycle could leave no region at all (seed 712, image 10), and an occluder cut a hidden object's pixels
+    into pieces each under ``region_min_pixels`` or each fitted on its own. Closing first joins such lines and
+    pieces into one region; the region keeps only its own pixels, not the ground the closing filled, since the
+    attribute network names it and its proposal claims it. An isolated sliver is a single strip that closing
+    leaves thin, so the opening still removes it. All 120 images of 712 (chosen on, 7 against 11 px): precision
+    0.970 -> 0.971, recall 0.948 -> 0.952; 716: 0.972 -> 0.971, 0.965 -> 0.968."""
     import cv2
 
     open_px, close_px = config.region_open_px, config.region_close_px
