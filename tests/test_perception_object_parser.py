@@ -478,6 +478,7 @@ def test_unexplained_thin_structure_is_one_region_of_its_own_pixels():
 
     import cv2
 
+    from po3d_ppl.errors import InputError
     from po3d_ppl.perception.object_parser import unexplained_regions
 
     foreground = np.zeros((120, 160), dtype=np.uint8)
@@ -496,7 +497,5 @@ def test_unexplained_thin_structure_is_one_region_of_its_own_pixels():
     assert regions[0][60, 30:71].sum() > 0 and not regions[0][10].any()
     explained[:, :] = 0  # a proposal explains every pixel: nothing is left
     assert unexplained_regions(foreground, explained, config) == []
-    from po3d_ppl.errors import InputError
-
     with pytest.raises(InputError, match="region_close_px"):
         ParserConfig(region_close_px=-3)
