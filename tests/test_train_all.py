@@ -15,7 +15,7 @@ import pytest
 from typer.testing import CliRunner
 
 from po3d_ppl.cli import app, main
-from po3d_ppl.cli.train_all import FULL, REPORT, SCALES, STAGES, TEST_SEED, TINY, plan
+from po3d_ppl.cli.train_all import FULL, REPORT, SCALES, STAGES, TEST_SEED, TIMELINE, TINY, link, plan
 from po3d_ppl.model_store import models_dir, read_manifest, sha256_file
 
 #: every model the chain writes (manifest name -> files)
@@ -76,12 +76,18 @@ def test_tiny_chain_reports_every_stage_with_seconds(tiny_chain):
         assert all(step["command"].startswith("po3d ") for step in row["steps"]), stage
     assert report["total_seconds"] == pytest.approx(sum(r["seconds"] for r in report["stages"].values()), abs=0.2)
     assert report["scale"] == "tiny" and report["threads"] == 1 and report["jobs"] == 2
-    # --jobs 2: the members trained at once, each in a process of its own, its output in a log
-    members = [step for step in report["stages"]["parser"]["steps"] if "log" in step]
-    assert [step["step"] for step in members] == ["parser", "parser calibration", "parser question_parser_cr_seed0",
-                                                   "parser calibration question_parser_cr_seed0"]
-    assert all(Path(step["log"]).is_file() for step in members)
-    assert report["stages"]["parser"]["steps"][-1]["step"] == "parser ensemble"
+    # --jobs 2: every command in a process of its own, its output in a log, timed from the run's start
+    steps = {step["step"]: step for row in report["stages"].values() for step in row["steps"]}
+    assert all(Path(step["log"]).is_file() and 0 <= step["start"] <= step["end"] for step in steps.values())
+    assert [step["step"] for step in report["stages"]["parser"]["steps"]][-1] == "parser ensemble"
+    # each command started after what it reads was made ...
+    assert steps["parser ensemble"]["start"] >= max(steps[name]["end"] for name in (
+        "parser calibration", "parser calibration question_parser_cr_seed0"))
+    assert steps["calibration"]["start"] >= max(steps["perception"]["end"], steps["background"]["end"])
+    assert steps["perception"]["start"] >= steps["dataset train_s711"]["end"]  # and not val's (not measured in tiny)
+    # ... and two ran at once: the run's wall clock is shorter than its commands one after another
+    assert report["wall_seconds"] < sum(step["seconds"] for step in steps.values())
+    assert (out / TIMELINE).stat().st_size > 0
     for stage in STAGES:  # the printed table
         assert stage in output
     assert "total" in output and REPORT in output
@@ -201,27 +207,78 @@ def test_full_scale_repeats_the_shipped_commands(tmp_path):
     assert built <= recorded_builds
 
 
-def test_a_failed_member_stops_the_others(tmp_path, monkeypatch):
-    """--jobs: when one group's command fails, the processes of the others are terminated, not left training."""
+def test_a_failed_command_stops_the_others(tmp_path):
+    """When one command fails, the processes still running are terminated, not left training."""
     import time
 
     from rich.console import Console
 
-    from po3d_ppl.cli import train_all
+    from po3d_ppl.cli.train_all import Step
+    from po3d_ppl.cli.train_schedule import run_commands
     from po3d_ppl.errors import Po3dError
 
     pid_file = tmp_path / "slow.pid"
     scripts = {"slow": f"import os, time; open({str(pid_file)!r}, 'w').write(str(os.getpid())); time.sleep(60)",
                "fails": "import time, sys; time.sleep(1); sys.exit(3)"}
-    monkeypatch.setattr(train_all, "_command", lambda step: [sys.executable, "-c", scripts[step.group]])
-    steps = [train_all.Step(label=group, fn=print, kwargs={}, words=["po3d", group], group=group)
-             for group in scripts]
+    steps = [Step(label=name, fn=print, kwargs={}, words=["po3d", name]) for name in scripts]
     start = time.perf_counter()
     with pytest.raises(Po3dError, match="fails failed"):
-        train_all._run_at_once(steps, 2, tmp_path, Console(quiet=True))
+        run_commands(steps, 2, tmp_path, Console(quiet=True), lambda step: [sys.executable, "-c", scripts[step.label]],
+                     lambda step, finished: None)
     assert time.perf_counter() - start < 30
     pid = int(pid_file.read_text())
     with pytest.raises(ProcessLookupError):  # terminated and reaped
         for _ in range(50):
             os.kill(pid, 0)
             time.sleep(0.1)
+
+
+def test_commands_wait_for_what_they_read_and_share_the_cores(tmp_path):
+    """A command starts only after the ones it waits for have ended; independent ones run side by side; the one
+    more commands wait on starts first."""
+    from rich.console import Console
+
+    from po3d_ppl.cli.train_all import Step
+    from po3d_ppl.cli.train_schedule import run_commands
+
+    def script(name: str) -> str:
+        return (f"import time; open({str(tmp_path / name)!r}, 'w').write(str(time.time())); time.sleep(0.6); "
+                f"open({str(tmp_path / name)!r}, 'a').write(' ' + str(time.time()))")
+
+    steps = [Step("alone", print, {}, ["po3d", "alone"]), Step("first", print, {}, ["po3d", "first"]),
+             Step("second", print, {}, ["po3d", "second"], after=("first",)),
+             Step("third", print, {}, ["po3d", "third"], after=("second", "alone"))]
+    finished = []
+    run_commands(steps, 2, tmp_path / "logs", Console(quiet=True),
+                 lambda step: [sys.executable, "-c", script(step.label)], lambda step, record: finished.append(record))
+    times = {name: [float(t) for t in (tmp_path / name).read_text().split()] for name in ("alone", "first", "second",
+                                                                                          "third")}
+    assert times["second"][0] >= times["first"][1]
+    assert times["third"][0] >= max(times["second"][1], times["alone"][1])
+    assert times["alone"][0] < times["first"][1] and times["first"][0] < times["alone"][1]  # side by side
+    assert [record.step for record in finished][-1] == "third"
+    assert all(record.cpu_seconds >= 0 and Path(record.log).is_file() for record in finished)
+    with pytest.raises(ValueError, match="cycle"):
+        run_commands([Step("a", print, {}, ["po3d", "a"], after=("b",)), Step("b", print, {}, ["po3d", "b"],
+                                                                               after=("a",))],
+                     2, tmp_path / "logs", Console(quiet=True), lambda step: [sys.executable, "-c", "pass"],
+                     lambda step, record: None)
+
+
+def test_full_chain_waits_for_what_each_stage_reads(tmp_path):
+    """The shipped chain's graph: the object calibration after the features and the background, the ensemble after
+    its members, the perception after the builds of its datasets, the parser's members after nothing; the feature
+    training, which most commands wait on, is the first to start after the datasets."""
+    from po3d_ppl.cli.train_schedule import dependents
+
+    steps = plan(FULL, tmp_path / "data", tmp_path / "out", 0, 1)
+    ordered = link(steps, list(STAGES), FULL)
+    after = {step.label: set(step.after) for step in ordered}
+    assert after["calibration"] == {"perception", "background", "dataset val_s712"}
+    assert after["parser"] == set() and after["parser calibration"] == {"parser"}
+    assert {"parser calibration", "parser calibration question_parser_w2_seed2"} <= after["parser ensemble"]
+    assert after["perception"] == {"dataset train_s711", "dataset val_s712"}
+    assert "viewpoint" in after["projection"] and "centres" in after["projection"]
+    weight = dependents(ordered)
+    trainings = ("perception", "background", "attributes", "viewpoint", "parser", "priors")
+    assert max(trainings, key=weight.get) == "perception" and weight["parser"] < weight["viewpoint"]

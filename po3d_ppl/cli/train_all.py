@@ -1,10 +1,12 @@
 """``po3d train all``: every training stage in dependency order, from the datasets to the fitted priors.
 
-The stages are the existing ``po3d train X`` commands, called in process with the settings of the shipped models
-(``--scale full``: the ``command`` and ``data_commands`` of each entry of models/manifest.json) or with a handful of
-scenes and steps (``--scale tiny``: the whole chain in CI). Each stage shows its command's own progress bars (the
-parser calibration, which has none, gets one here); each is timed (wall and CPU seconds) and the timings are
-printed as a table and written to ``OUT/train_all.json`` next to the weights and their manifest.
+The stages are the existing ``po3d train X`` commands with the settings of the shipped models (``--scale full``:
+the ``command`` and ``data_commands`` of each entry of models/manifest.json) or with a handful of scenes and steps
+(``--scale tiny``: the whole chain in CI). By default they run as processes, as many at once as the machine has
+cores, each command as soon as the datasets and models it reads are made (:mod:`po3d_ppl.cli.train_schedule`);
+``--jobs 1`` runs them one after another in this process, each with its command's own progress bars. Every
+command and stage is timed (wall and CPU seconds, and when it started); the timings are printed as a table and
+written to ``OUT/train_all.json`` next to the weights and their manifest, with a timeline, ``OUT/train_all.png``.
 
 Stages read what earlier stages wrote into ``--out`` (the object calibration parses images with the feature model
 and the background model of ``--out``), so ``--stages`` can resume a chain; a missing prerequisite is an
@@ -39,6 +41,8 @@ STAGES = ("datasets", "parser", "perception", "background", "centres", "calibrat
 TEST_SEED = 713
 #: The report written next to the weights.
 REPORT = "train_all.json"
+#: the chain's timeline (one bar a command), written next to the report
+TIMELINE = "train_all.png"
 
 _DESCRIPTIONS = {
     "datasets": "po3d dataset build: rendered training and validation scenes",
@@ -195,9 +199,12 @@ class Step:
     fn: Callable[..., Any]
     kwargs: dict[str, Any]
     words: list[str]
-    bar: bool = False  # the command has no progress bar of its own: show one around it
-    #: steps of one group run in order in one process; different groups may run at once (``--jobs``)
+    bar: bool = False  # the command has no progress bar of its own: show one around it (``--jobs 1``)
+    #: steps of one group run one after another; different groups of a stage may run at once (``--jobs``)
     group: str | None = None
+    #: the stage the step belongs to and the labels of the steps it waits for (set by :func:`link`)
+    stage: str = ""
+    after: tuple[str, ...] = ()
 
 
 def invoke(fn: Callable[..., Any], **kwargs: Any) -> Any:
@@ -369,13 +376,12 @@ def _read_report(path: Path) -> dict:
 
 def train_all(data: Path, out: Path, *, seed: int = 0, scale: str = "full", stages: list[str] | None = None,
               threads: int = 1, jobs: int | None = None, console=None) -> dict:
-    """Run ``stages`` (default: all, in :data:`STAGES` order) at ``scale``; return the report also written to
-    ``out/train_all.json``. Datasets the stages read are built first when ``data`` lacks them. The parser
-    ensemble's members train ``jobs`` at a time (default: all at once), each in a process of its own on
-    ``threads`` threads (the same commands); ``jobs=1`` trains them one after another in this process."""
+    """Run ``stages`` (default: all) at ``scale``; return the report also written to ``out/train_all.json``.
+    Datasets the stages read are built first when ``data`` lacks them. ``jobs`` commands run at once (default:
+    one a CPU core), each in a process of its own on ``threads`` threads as soon as what it reads is made;
+    ``jobs=1`` runs them in :data:`STAGES` order in this process."""
     import torch
     from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from po3d_ppl.cli._common import check_seed
     from po3d_ppl.errors import InputError, UnknownNameError
@@ -399,8 +405,9 @@ def train_all(data: Path, out: Path, *, seed: int = 0, scale: str = "full", stag
     if out.exists() and not out.is_dir():
         raise InputError("--out", f"{out} exists and is not a directory")
     assert all(d.seed != TEST_SEED for d in spec.datasets), "the held-out test seed is never trained on"
+    jobs = jobs or os.cpu_count() or 1
     base = ["po3d", "train", "all", "--data", str(data), "--out", str(out), "--seed", str(seed), "--scale", scale,
-            "--threads", str(threads)] + ([] if jobs is None else ["--jobs", str(jobs)])
+            "--threads", str(threads), "--jobs", str(jobs)]
     # the datasets stage runs whenever a selected stage reads a dataset (building only what is missing)
     needed = datasets_needed(spec, chosen)
     run = [s for s in STAGES if s in chosen or (s == "datasets" and needed)]
@@ -412,134 +419,102 @@ def train_all(data: Path, out: Path, *, seed: int = 0, scale: str = "full", stag
     torch.set_num_threads(threads)
     out.mkdir(parents=True, exist_ok=True)
     report_path = out / REPORT
-    report = _read_report(report_path)
-    recorded = report.get("stages", {})
+    recorded = _read_report(report_path).get("stages", {})
     started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
-    for number, stage in enumerate(run, 1):
-        console.rule(f"[bold]{number}/{len(run)} {stage}[/]: {_DESCRIPTIONS[stage]}", style="cyan")
-        stage_start, stage_cpu = time.perf_counter(), _cpu_seconds()
-        groups = {st.group for st in steps[stage] if st.group is not None}
-        at_once = len(groups) if jobs is None else jobs
-        parallel = [st for st in steps[stage] if st.group is not None] if at_once > 1 and len(groups) > 1 else []
-        parts = _run_at_once(parallel, at_once, out, console) if parallel else []
-        for step in steps[stage]:
-            if step in parallel:
-                continue
-            console.print("$ " + shlex.join(step.words), markup=False, highlight=False, style="dim", soft_wrap=True)
-            start, cpu = time.perf_counter(), _cpu_seconds()
-            if step.bar:
-                with Progress(TextColumn(f"[bold]{step.label}"), BarColumn(), TimeElapsedColumn(),
-                              console=console) as bar:
-                    bar.add_task(step.label, total=None)
-                    invoke(step.fn, **step.kwargs)
-            else:
-                invoke(step.fn, **step.kwargs)
-            parts.append({"step": step.label, "command": shlex.join(step.words),
-                          "seconds": round(time.perf_counter() - start, 1),
-                          "cpu_seconds": round(_cpu_seconds() - cpu, 1)})
-        recorded[stage] = {"seconds": round(time.perf_counter() - stage_start, 1),
-                           "cpu_seconds": round(_cpu_seconds() - stage_cpu, 1), "scale": scale,
-                           "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "steps": parts,
-                           "outputs": _outputs(stage, steps[stage], out)}
-        # written after every stage, so an interrupted chain keeps the timings of what it finished
+    ordered = link(steps, run, spec)
+    records: dict[str, list[dict]] = {stage: [] for stage in run}
+    origin = time.perf_counter()
+    report: dict = {}
+
+    def on_finish(step: Step, record: dict) -> None:
+        """Keep a step's record; after a stage's last step, record the stage and write the report (so an
+        interrupted chain keeps the timings of what it finished)."""
+        nonlocal report
+        records[step.stage].append(record)
+        if len(records[step.stage]) < len(steps[step.stage]):
+            return
+        rows = records[step.stage]
+        first, last = min(r["start"] for r in rows), max(r["end"] for r in rows)
+        recorded[step.stage] = {"seconds": round(last - first, 1),
+                                "cpu_seconds": round(sum(r["cpu_seconds"] for r in rows), 1), "scale": scale,
+                                "run": started, "start": first, "end": last,
+                                "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "steps": rows,
+                                "outputs": _outputs(step.stage, steps[step.stage], out)}
         report = {"command": shlex.join(base + ["--stages", ",".join(run)]), "scale": scale, "seed": seed,
                   "threads": threads, "jobs": jobs, "data": str(data), "out": str(out), "started": started,
-                  "cpu_count": os.cpu_count(), "device": "cpu",
+                  "cpu_count": os.cpu_count(), "device": "cpu", "wall_seconds": round(time.perf_counter() - origin, 1),
                   "stages": {s: recorded[s] for s in STAGES if s in recorded}}
         report["total_seconds"] = round(sum(s["seconds"] for s in report["stages"].values()), 1)
         report["total_cpu_seconds"] = round(sum(s["cpu_seconds"] for s in report["stages"].values()), 1)
         _write_json(report_path, report)
+
+    if jobs == 1:
+        _run_in_process(ordered, run, console, origin, on_finish)
+    else:
+        from dataclasses import asdict
+
+        from po3d_ppl.cli.train_schedule import run_commands
+
+        console.rule(f"[bold]{len(run)} stages[/]: {', '.join(run)}", style="cyan")
+        console.print(f"{len(ordered)} commands, {jobs} at a time, each as soon as what it reads is trained; "
+                      f"logs in {out / 'logs'}", markup=False, highlight=False)
+        run_commands(ordered, jobs, out / "logs", console, _command,
+                     lambda step, finished: on_finish(step, asdict(finished)), origin=origin)
     print_report(report, console, ran=run)
     console.print(f"report -> {report_path}", markup=False, highlight=False)
+    figure = plot_timeline(report, out / TIMELINE)
+    console.print(f"timeline -> {figure}", markup=False, highlight=False)
     return report
+
+
+def link(steps: dict[str, list[Step]], run: list[str], scale: Scale) -> list[Step]:
+    """The steps of the stages in ``run``, in order, each one's ``stage`` and ``after`` set: a stage waits for the
+    builds of the datasets it reads and for every step of the stages whose models it reads (``_NEEDS_MODELS``);
+    within a stage, a step of a group follows the earlier steps of its group, a step of no group every earlier
+    step (the parser's members train side by side, the ensemble after them)."""
+    built = {s.kwargs["out"].name: s.label for s in steps["datasets"]} if "datasets" in run else {}
+    ordered: list[Step] = []
+    for stage in run:
+        makers = [maker for maker in run if maker in {_MODELS[name][0] for name in _NEEDS_MODELS.get(stage, ())}]
+        before = [s.label for maker in makers for s in steps[maker]]
+        if stage != "datasets":
+            before += [built[d.name] for d in datasets_needed(scale, [stage]) if d.name in built]
+        earlier: list[Step] = []
+        for step in steps[stage]:
+            own = [s.label for s in earlier if step.group is None or s.group in (step.group, None)]
+            step.stage, step.after = stage, tuple(before + own)
+            earlier.append(step)
+        ordered += steps[stage]
+    return ordered
+
+
+def _run_in_process(ordered: list[Step], run: list[str], console, origin: float,
+                    on_finish: Callable[[Step, dict], None]) -> None:
+    """``--jobs 1``: every step in this process, one after another, each with its command's own progress bars."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    stage = None
+    for step in ordered:
+        if step.stage != stage:
+            stage = step.stage
+            console.rule(f"[bold]{run.index(stage) + 1}/{len(run)} {stage}[/]: {_DESCRIPTIONS[stage]}", style="cyan")
+        console.print("$ " + shlex.join(step.words), markup=False, highlight=False, style="dim", soft_wrap=True)
+        start, cpu = time.perf_counter(), _cpu_seconds()
+        if step.bar:
+            with Progress(TextColumn(f"[bold]{step.label}"), BarColumn(), TimeElapsedColumn(), console=console) as bar:
+                bar.add_task(step.label, total=None)
+                invoke(step.fn, **step.kwargs)
+        else:
+            invoke(step.fn, **step.kwargs)
+        end = time.perf_counter()
+        on_finish(step, {"step": step.label, "command": shlex.join(step.words), "seconds": round(end - start, 1),
+                         "cpu_seconds": round(_cpu_seconds() - cpu, 1), "start": round(start - origin, 1),
+                         "end": round(end - origin, 1)})
 
 
 def _command(step: Step) -> list[str]:
     """The process that runs ``step`` (this interpreter, the step's command line)."""
     return [sys.executable, "-c", "from po3d_ppl.cli import main; main()", *step.words[1:]]
-
-
-def _run_at_once(steps: list[Step], jobs: int, out: Path, console) -> list[dict]:
-    """Run the groups of ``steps`` (each group's steps in order, in a process of its own: the command line the
-    step prints) ``jobs`` at a time, their output in ``out/logs/GROUP.log``; one progress line per group. Why
-    processes: each member trains on its own thread(s), so the three members of the shipped ensemble share the
-    two cores instead of leaving one idle (measured in docs/architecture.md). A failed command stops the chain with its log's
-    last lines, and so do Ctrl-C and SIGTERM: the processes still running are terminated, none is left training."""
-    import signal
-    import threading
-    from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
-
-    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
-
-    from po3d_ppl.errors import Po3dError
-
-    groups: dict[str, list[Step]] = {}
-    for step in steps:
-        groups.setdefault(step.group, []).append(step)
-    logs = out / "logs"
-    logs.mkdir(parents=True, exist_ok=True)
-    for step in steps:
-        console.print("$ " + shlex.join(step.words), markup=False, highlight=False, style="dim", soft_wrap=True)
-    console.print(f"{len(groups)} groups, {jobs} at a time; logs in {logs}", markup=False, highlight=False)
-
-    running: set[subprocess.Popen] = set()
-    lock = threading.Lock()
-    stopping = threading.Event()
-
-    def run_group(name: str, tasks: dict, progress) -> list[dict]:
-        records = []
-        log = logs / f"{name}.log"
-        with open(log, "w") as handle:
-            for step in groups[name]:
-                progress.update(tasks[name], description=f"{name}: {step.label}")
-                start = time.perf_counter()
-                with lock:
-                    if stopping.is_set():
-                        raise Po3dError(f"{name}: stopped before {step.label}")
-                    process = subprocess.Popen(_command(step), stdout=handle, stderr=subprocess.STDOUT)
-                    running.add(process)
-                returncode = process.wait()
-                with lock:
-                    running.discard(process)
-                if returncode != 0:
-                    tail = log.read_text(errors="replace").strip().splitlines()[-8:]
-                    raise Po3dError(f"{step.label} failed (exit {returncode}): {shlex.join(step.words)}\n"
-                                    + "\n".join(tail) + f"\n(full output: {log})")
-                records.append({"step": step.label, "command": shlex.join(step.words),
-                                "seconds": round(time.perf_counter() - start, 1), "cpu_seconds": None,
-                                "log": str(log)})
-        progress.update(tasks[name], description=f"{name}: done", completed=1)
-        return records
-
-    def stop() -> None:
-        with lock:
-            stopping.set()
-            for process in running:
-                process.terminate()
-
-    def exit_on_sigterm(signum, frame):
-        raise SystemExit(128 + signum)
-
-    in_main = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGTERM, exit_on_sigterm) if in_main else None
-    try:
-        with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
-                      console=console) as bar:
-            tasks = {name: bar.add_task(f"{name}: waiting", total=1) for name in groups}
-            with ThreadPoolExecutor(max_workers=jobs) as pool:
-                futures = [pool.submit(run_group, name, tasks, bar) for name in groups]
-                try:
-                    finished, _ = wait(futures, return_when=FIRST_EXCEPTION)  # the first failure ends the wait
-                    failed = [future.exception() for future in finished if future.exception() is not None]
-                    if failed:
-                        raise failed[0]
-                    return [record for future in futures for record in future.result()]
-                except BaseException:  # a failed group, Ctrl-C or SIGTERM: leave no member training
-                    stop()
-                    raise
-    finally:
-        if in_main:
-            signal.signal(signal.SIGTERM, previous)
 
 
 def _outputs(stage: str, steps: list[Step], out: Path) -> list[str]:
@@ -572,9 +547,41 @@ def print_report(report: dict, console, ran: list[str] | None = None) -> None:
         note = "" if ran is None or stage in ran else " (earlier run)"
         outputs = ", ".join(Path(o).name for o in row.get("outputs", []))
         table.add_row(literal(stage + note), f"{row['seconds']:.1f}", f"{row['cpu_seconds']:.1f}", literal(outputs))
-    table.add_row("total", f"{report['total_seconds']:.1f}", f"{report['total_cpu_seconds']:.1f}", "",
-                  style="bold")
+    table.add_row("total (stages summed)", f"{report['total_seconds']:.1f}", f"{report['total_cpu_seconds']:.1f}",
+                  "", style="bold")
+    if "wall_seconds" in report:
+        table.add_row(f"this run, wall clock ({report.get('jobs')} at a time)", f"{report['wall_seconds']:.1f}", "",
+                      "", style="bold")
     console.print(table)
+
+
+def plot_timeline(report: dict, path: Path) -> Path:
+    """One bar a command of the report's latest run (stages of earlier runs are left out), coloured by stage:
+    which commands shared the cores and where one waited for another."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    latest = {stage: row for stage, row in report["stages"].items() if row.get("run") == report["started"]}
+    rows = [(stage, step) for stage, row in latest.items() for step in row["steps"]]
+    rows.sort(key=lambda item: item[1]["start"])
+    colours = {stage: plt.get_cmap("tab20")(index % 20) for index, stage in enumerate(STAGES)}
+    figure, axes = plt.subplots(figsize=(10, 1.5 + 0.3 * len(rows)))
+    for y, (stage, step) in enumerate(rows):
+        axes.barh(y, step["end"] - step["start"], left=step["start"], color=colours[stage], edgecolor="black",
+                  linewidth=0.5)
+    axes.set_yticks(range(len(rows)), [step["step"] for _, step in rows], fontsize=8)
+    axes.invert_yaxis()
+    axes.set_xlabel("seconds since the run started")
+    axes.set_title(f"po3d train all --scale {report['scale']}: {report.get('wall_seconds', 0):.0f} s wall clock, "
+                   f"{report.get('jobs')} commands at a time on {report.get('cpu_count')} cores", fontsize=9)
+    handles = [plt.Rectangle((0, 0), 1, 1, color=colours[stage]) for stage in latest]
+    axes.legend(handles, list(latest), fontsize=7, loc="lower right")
+    figure.tight_layout()
+    figure.savefig(path, dpi=100)
+    plt.close(figure)
+    return path
 
 
 def train_all_command(
@@ -592,8 +599,8 @@ def train_all_command(
                          "ones' models from --out.")] = None,
     threads: Annotated[int, typer.Option("--threads", min=1, help="torch CPU threads of every stage.")] = 1,
     jobs: Annotated[int | None, typer.Option(
-        "--jobs", min=1, help="Parser ensemble members trained at once, each in a process of its own (default: all "
-                              "of them; 1: one after another in this process).")] = None,
+        "--jobs", min=1, help="Commands run at once, each in a process of its own as soon as what it reads is made "
+                              "(default: one a CPU core; 1: one after another in this process).")] = None,
 ) -> None:
     """Train every model in dependency order (datasets, parser, perception, background, calibration, attributes,
     viewpoint, projection, priors) with a progress bar on each stage, and report the seconds each took."""
