@@ -73,6 +73,7 @@ def test_summary_counts_detection_depth_order_and_occluded_subset():
                          proposals=3, matched_small=0, existence_logodds=[3.0, 2.0, -1.0],
                          proposal_matched=[True, True, False], seconds=1.0, timings={"coarse": 0.5})
     figures = summarise([image])
+    assert set(figures["believed"]) == {"proposals", "precision", "recall", "existence_ece"}
     assert figures["precision"] == pytest.approx(2 / 3)
     assert figures["recall"] == pytest.approx(2 / 3)
     assert figures["azimuth_within_30"] == 0.5
@@ -159,3 +160,17 @@ def test_the_failure_gallery_draws_the_worst_images_and_lists_them(tmp_path):
     assert (drawn[0:11, 500] == FALSE).all(axis=-1).any()  # the phantom proposal's box edge, in orange
     with pytest.raises(InputError, match="image"):
         write_gallery([_failing_image()], [tmp_path / "gone.png"], tmp_path / "other")
+
+
+def test_believed_detection_drops_the_proposals_existence_disbelieves():
+    """A found object whose only proposal has existence log-odds below 0 counts as found in the headline recall
+    and as missed among the believed proposals; a disbelieved false proposal leaves the believed precision."""
+    from po3d_ppl.evaluation.objects import believed_detection
+
+    objects = [_obj(0, [0, 0, 10, 10], 0), _obj(1, [50, 0, 10, 10], 1), _obj(2, [100, 0, 10, 10], -1)]
+    image = ImageOutcome("a.png", objects, proposals=4, matched_small=0, existence_logodds=[3.0, -8.0, 2.0, -1.0],
+                         proposal_matched=[True, True, False, False], seconds=0.0, timings={},
+                         proposal_boxes=[[0, 0, 10, 10], [50, 0, 10, 10], [300, 0, 10, 10], [400, 0, 10, 10]])
+    believed = believed_detection([image])
+    assert believed["recall"] == pytest.approx(1 / 3) and believed["precision"] == pytest.approx(1 / 2)
+    assert believed["proposals"] == 2 and 0 < believed["existence_ece"] < 1

@@ -219,7 +219,7 @@ def _strip_proposals(n: int, ownership: torch.Tensor):
         size_loglik=torch.zeros(n, 2, dtype=torch.float64),
         positions=torch.arange(3 * n, dtype=torch.float64).reshape(n, 3), depths=torch.arange(n, dtype=torch.float64),
         rotations=torch.zeros(n, dtype=torch.float64), boxes=xywh_boxes(masks), masks=masks, ownership=ownership,
-        camera=CameraPrior(640, 480).base, poses=["a", "b", "c"][:n])
+        camera=CameraPrior(640, 480).base, from_region=torch.arange(n) == n - 1, poses=["a", "b", "c"][:n])
 
 
 def test_merged_proposals_pool_their_pixels_and_drop_the_folded_rows():
@@ -229,7 +229,7 @@ def test_merged_proposals_pool_their_pixels_and_drop_the_folded_rows():
     ownership = torch.full((4, 9), -1, dtype=torch.long)
     ownership[:, 0:3], ownership[:, 3:6], ownership[1:3, 6:9] = 0, 1, 2  # 1 is the second half of 2's object
     merged = merge_proposals(_strip_proposals(3, ownership), [0, 2, 2])
-    assert len(merged) == 2 and merged.poses == ["a", "c"]
+    assert len(merged) == 2 and merged.poses == ["a", "c"] and merged.from_region.tolist() == [False, True]
     assert merged.existence_logodds.tolist() == [0.0, 2.0] and merged.depths.tolist() == [0.0, 2.0]
     assert (merged.ownership[:, 3:6] == 1).all() and (merged.ownership[:, :3] == 0).all()
     assert merged.boxes[1].tolist() == [3.0, 0.0, 6.0, 4.0]  # the union of the two halves
@@ -323,3 +323,22 @@ def test_camera_height_is_read_from_object_sizes_despite_misplaced_bases():
         errors[shift] = abs(found.camera_to_world[2][3] - camera.camera_to_world[2][3])
     assert errors[10] < 0.05
     assert errors[0] > errors[10]
+
+
+def test_post_filter_lowers_existence_by_at_most_the_bound_where_the_attributes_disagree():
+    from po3d_ppl import ontology
+    from po3d_ppl.perception.scene_parser import post_filter
+
+    categories = list(ontology.CATEGORIES)
+    category_logp = torch.full((2, 5), -9.0, dtype=torch.float64)
+    category_logp[:, categories.index("car")] = 0.0  # render-and-compare reads a car twice
+    subtype = torch.full((2, len(ontology.SUBTYPES)), -20.0, dtype=torch.float64)
+    subtype[0, ontology.SUBTYPES.index("sedan")] = 0.0  # the attributes agree ...
+    subtype[1, ontology.SUBTYPES.index("airliner")] = 0.0  # ... and strongly disagree
+    existence = torch.tensor([2.0, 2.0], dtype=torch.float64)
+    bounded = post_filter(existence, category_logp, subtype, 1.0)
+    unbounded = post_filter(existence, category_logp, subtype, None)
+    assert bounded[0] == pytest.approx(2.0, abs=1e-6) and bounded[1] == pytest.approx(1.0)
+    assert float(unbounded[1]) < -10.0 and unbounded[0] == pytest.approx(2.0, abs=1e-6)
+    with pytest.raises(Exception, match="post_filter_max_nats"):
+        SceneParserConfig(post_filter_max_nats=-1.0)

@@ -53,6 +53,11 @@ def _evidence_markdown(figures: dict) -> str:
             ("median 3D position error (world units)", objects.get("median_position_error"), 0.25),
             ("pairwise depth order", objects.get("depth_order_correct"), 0.95),
             ("category ECE", objects.get("category_ece"), 0.05),
+            ("detection precision, believed proposals only (existence log-odds > 0)",
+             objects.get("believed", {}).get("precision"), None),
+            ("detection recall, believed proposals only", objects.get("believed", {}).get("recall"), None),
+            ("existence ECE (a proposal's event: it matches an object)",
+             objects.get("believed", {}).get("existence_ece"), None),
             ("subtype accuracy", evidence.get("subtype_accuracy"), 0.90),
             ("colour accuracy", evidence.get("color_accuracy"), 0.95),
             ("material accuracy", evidence.get("material_accuracy"), 0.95),
@@ -62,7 +67,7 @@ def _evidence_markdown(figures: dict) -> str:
             ("part occlusion F1", evidence.get("part_occlusion_f1"), 0.75)]
     lines = ["| figure | measured | target |", "|---|---|---|"]
     for name, value, target in rows:
-        lines.append(f"| {name} | {_num(value)} | {target} |")
+        lines.append(f"| {name} | {_num(value)} | {'-' if target is None else target} |")
     occluded = objects.get("occluded_20pct", {})
     if occluded:
         lines += ["", f"Objects >= 20% occluded ({occluded.get('objects')}): recall "

@@ -235,10 +235,37 @@ def summarise(outcomes: Sequence[ImageOutcome], min_pixels: int = 200, occluded_
         f"occluded_{int(occluded_ratio * 100)}pct": _subset_figures(occluded),
         "per_category": {c: _subset_figures([o for o in objs if o.category == c]) for c in CATEGORIES},
         "detection_failures": detection_failures(outcomes, min_pixels),
+        "believed": believed_detection(outcomes, min_pixels),
         "stage_seconds_median": {k: statistics.median(img.timings[k] for img in outcomes)
                                  for k in (outcomes[0].timings if outcomes else {})},
     }
     return figures
+
+
+def believed_detection(outcomes: Sequence[ImageOutcome], min_pixels: int = 200, min_iou: float = 0.5) -> dict:
+    """Detection counting only the proposals the evidence believes (existence log-odds > 0), matched afresh among
+    themselves, and the existence table's calibration (its sigmoid against whether the proposal matches an
+    object). The headline precision and recall count every proposal, whatever its existence: reasoning weighs a
+    proposal by its existence, so one at log-odds -10 is all but absent from the answers. Outcomes saved before
+    boxes were recorded are skipped."""
+    true_positives = predictions = objects = 0
+    confidences: list[float] = []
+    matched: list[bool] = []
+    for img in outcomes:
+        if len(img.proposal_boxes) != img.proposals or any(not o.box for o in img.objects):
+            continue
+        believed = [k for k, value in enumerate(img.existence_logodds) if value > 0]
+        boxes = np.array([img.proposal_boxes[k] for k in believed], dtype=np.float64).reshape(-1, 4)
+        truth = np.array([o.box for o in img.objects], dtype=np.float64).reshape(-1, 4)
+        found = {j for _, j in match_boxes(boxes, truth, min_iou)}
+        true_positives += sum(1 for j in found if img.objects[j].visible_pixels >= min_pixels)
+        predictions += len(believed) - sum(1 for j in found if img.objects[j].visible_pixels < min_pixels)
+        objects += sum(1 for o in img.objects if o.visible_pixels >= min_pixels)
+        confidences += torch.sigmoid(torch.tensor(img.existence_logodds, dtype=torch.float64)).tolist()
+        matched += list(img.proposal_matched)
+    return {"proposals": predictions, "precision": true_positives / predictions if predictions else None,
+            "recall": true_positives / objects if objects else None,
+            "existence_ece": binned_calibration_error(confidences, matched) if confidences else None}
 
 
 @dataclass(frozen=True)

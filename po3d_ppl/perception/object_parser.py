@@ -282,6 +282,9 @@ class ObjectProposals:
     masks: torch.Tensor
     ownership: torch.Tensor
     camera: Camera
+    #: [N] bool: proposed by the second search, for foreground the first reading left unexplained
+    #: (:func:`add_region_proposals`; its existence log-odds is its score over the region)
+    from_region: torch.Tensor
     #: The posed category mesh of each proposal (category, size, x, y, yaw), to render it (overlays, parts).
     poses: list[Hypothesis] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
@@ -1323,7 +1326,8 @@ def record_objects(search: ObjectSearch) -> ObjectProposals:
         fg = fg[keep] if keep else None
         ownership, _ = _final_ownership(located, camera, config, img.size, fg, search.foreground, search.chroma,
                                         regions)
-    record = _record(located, new_scores, tables, camera, config, ownership, search.calibration)
+    from_region = torch.tensor([region is not None for region in regions], dtype=torch.bool)
+    record = _record(located, new_scores, tables, camera, config, ownership, search.calibration, from_region)
     record.timings = {**search.timings, "record": time.perf_counter() - t0}
     return record
 
@@ -1567,7 +1571,8 @@ def add_region_proposals(search: ObjectSearch, explained: np.ndarray | None, nam
 
 
 def _record(accepted: list[Hypothesis], new_scores: list[float], tables: list, camera: Camera,
-            config: ParserConfig, ownership: torch.Tensor, calibration: TableCalibration) -> ObjectProposals:
+            config: ParserConfig, ownership: torch.Tensor, calibration: TableCalibration,
+            from_region: torch.Tensor) -> ObjectProposals:
     n, k = len(accepted), config.azimuth_bins
     cat = torch.stack([t[0] for t in tables]) if n else torch.zeros(0, len(CATEGORIES), dtype=torch.float64)
     pose = torch.stack([t[1] for t in tables]) if n else torch.zeros(0, len(CATEGORIES), k, dtype=torch.float64)
@@ -1587,7 +1592,8 @@ def _record(accepted: list[Hypothesis], new_scores: list[float], tables: list, c
         positions=torch.tensor([[h.x, h.y, 0.0] for h in accepted], dtype=torch.float64).reshape(n, 3),
         depths=torch.tensor([h.depth for h in accepted], dtype=torch.float64),
         rotations=torch.tensor([h.rotation for h in accepted], dtype=torch.float64),
-        boxes=xywh_boxes(masks), masks=masks, ownership=ownership, camera=camera, poses=list(accepted),
+        boxes=xywh_boxes(masks), masks=masks, ownership=ownership, camera=camera, from_region=from_region.reshape(n),
+        poses=list(accepted),
         notes=NOTES + ((RAW_NOTE,) if calibration == TableCalibration() else ()))
 
 

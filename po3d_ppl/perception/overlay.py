@@ -34,6 +34,7 @@ def proposals_record(proposals) -> dict:
             "position": [float(v) for v in proposals.positions[i]],
             "box_xywh": [int(v) for v in proposals.boxes[i]],
             "visible_pixels": int(proposals.masks[i].sum()),
+            "from_region": bool(proposals.from_region[i]),
         })
     return {"proposals": out, "timings_s": dict(proposals.timings), "notes": list(proposals.notes)}
 

@@ -129,6 +129,13 @@ class SceneParserConfig:
     merge_min_category: float = 0.5
     merge_min_colour: float = 0.1
     merge_max_distance: float | None = 1.5
+    #: Post-filtering as evidence (paper section 4.2) lowers a proposal's existence log-odds by the attribute
+    #: reading's log-probability of the render-and-compare category, by at most this many nats (None: no bound).
+    #: Unbounded, the penalty reached 10 nats, and it fell mostly on hidden objects, whose few visible pixels the
+    #: attribute network reads poorly: on seed 712, 15 of the 18 proposals it lowered by more than 2 nats were
+    #: objects (existence NLL over all 658 proposals: 0.268 unbounded, 0.123 without the post-filter, 0.122 at 1
+    #: nat; 0.25 to 1 nat alike). Chosen on 712 (``docs/perception.md``).
+    post_filter_max_nats: float | None = 1.0
 
     def __post_init__(self) -> None:
         if not (isinstance(self.pose_hypotheses, int) and self.pose_hypotheses >= 1):
@@ -145,6 +152,9 @@ class SceneParserConfig:
                                                and self.occlusion_shift_steps >= 0):
             raise InputError("SceneParserConfig.occlusion_shift_px", "the shift spread must be >= 0 and the steps an "
                              f"integer >= 0, got {self.occlusion_shift_px!r}, {self.occlusion_shift_steps!r}")
+        if self.post_filter_max_nats is not None and not self.post_filter_max_nats >= 0:
+            raise InputError("SceneParserConfig.post_filter_max_nats", "must be >= 0 nats or None (no bound), got "
+                             f"{self.post_filter_max_nats!r}")
         if not (isinstance(self.merge_touch_px, int) and self.merge_touch_px >= 0) \
                 or not 0.0 <= self.merge_min_category < 1.0 or not 0.0 <= self.merge_min_colour < 1.0 \
                 or (self.merge_max_distance is not None and self.merge_max_distance <= 0):
@@ -371,6 +381,16 @@ def seen_as_read(parsed: ParsedScene) -> ParsedScene:
     return dataclasses.replace(parsed, evidence=evidence)
 
 
+def post_filter(existence: torch.Tensor, category_logp: torch.Tensor, attribute_subtype_loglik: torch.Tensor,
+                max_nats: float | None) -> torch.Tensor:
+    """Post-filtering as evidence (paper section 4.2): the existence log-odds [N] lowered by the attribute reading's
+    log-probability of the render-and-compare category (its argmax of ``category_logp`` [N, 5]), by at most
+    ``max_nats`` (``SceneParserConfig.post_filter_max_nats``); the proposal is kept."""
+    attribute_category = category_marginal(torch.log_softmax(attribute_subtype_loglik, -1))
+    penalty = torch.gather(attribute_category, 1, category_logp.argmax(-1, keepdim=True))[:, 0]
+    return existence + (penalty if max_nats is None else penalty.clamp(min=-max_nats))
+
+
 def read_scene(img: ImageInput, proposals, attributes: AttributeNet | None, viewpoint: ViewpointNet | None,
                 projection_calibration: ProjectionCalibration | None, config: SceneParserConfig) -> ParsedScene:
     """Every table of the evidence from the object parser's proposals: attributes, viewpoint, camera height,
@@ -393,10 +413,7 @@ def read_scene(img: ImageInput, proposals, attributes: AttributeNet | None, view
         subtype_ll = subtype_ll + read["subtype"].to(DTYPE)
         color_ll, material_ll = read["color"].to(DTYPE), read["material"].to(DTYPE)
         size_ll = size_ll + read["size"].to(DTYPE)
-        # post-filtering as evidence (paper §4.2): the attribute reading's belief in the render-and-compare
-        # category lowers the existence log-odds when it disagrees; the proposal is kept
-        attr_category = category_marginal(torch.log_softmax(read["subtype"].to(DTYPE), -1))
-        exist = exist + torch.gather(attr_category, 1, category_logp.argmax(-1, keepdim=True))[:, 0]
+        exist = post_filter(exist, category_logp, read["subtype"].to(DTYPE), config.post_filter_max_nats)
     elif n:
         notes.append("no attribute reader: colour, material and part styles uninformative, subtypes of a "
                      "category tie")
