@@ -42,7 +42,7 @@ def tiny_chain(tmp_path_factory, torch_one_thread):
     root = tmp_path_factory.mktemp("train_all")
     data, out = root / "data", root / "models"
     result = CliRunner().invoke(app, ["train", "all", "--data", str(data), "--out", str(out), "--scale", "tiny",
-                                      "--seed", "0", "--threads", "1", "--jobs", "2"])
+                                      "--seed", "0", "--threads", "1", "--jobs", "1"])
     assert result.exit_code == 0, (result.output, result.exception)
     return data, out, result.output
 
@@ -75,19 +75,14 @@ def test_tiny_chain_reports_every_stage_with_seconds(tiny_chain):
         assert row["cpu_seconds"] >= 0 and row["steps"], stage
         assert all(step["command"].startswith("po3d ") for step in row["steps"]), stage
     assert report["total_seconds"] == pytest.approx(sum(r["seconds"] for r in report["stages"].values()), abs=0.2)
-    assert report["scale"] == "tiny" and report["threads"] == 1 and report["jobs"] == 2
-    # --jobs 2: every command in a process of its own, its output in a log, timed from the run's start
-    steps = {step["step"]: step for row in report["stages"].values() for step in row["steps"]}
-    assert all(Path(step["log"]).is_file() and 0 <= step["start"] <= step["end"] for step in steps.values())
+    assert report["scale"] == "tiny" and report["threads"] == 1 and report["jobs"] == 1
+    # --jobs 1: one command after another in this process, in the stages' order, timed from the run's start
+    steps = [step for row in report["stages"].values() for step in row["steps"]]
+    assert all(0 <= step["start"] <= step["end"] for step in steps)
     assert [step["step"] for step in report["stages"]["parser"]["steps"]][-1] == "parser ensemble"
-    # each command started after what it reads was made ...
-    assert steps["parser ensemble"]["start"] >= max(steps[name]["end"] for name in (
-        "parser calibration", "parser calibration question_parser_cr_seed0"))
-    assert steps["calibration"]["start"] >= max(steps["perception"]["end"], steps["background"]["end"])
-    assert steps["perception"]["start"] >= steps["dataset train_s711"]["end"]  # and not val's (not measured in tiny)
-    # ... and two ran at once: the run's wall clock is shorter than its commands one after another
-    assert report["wall_seconds"] < sum(step["seconds"] for step in steps.values())
-    assert (out / TIMELINE).stat().st_size > 0
+    by_start = sorted(steps, key=lambda step: step["start"])
+    assert all(a["end"] <= b["start"] + 0.2 for a, b in itertools.pairwise(by_start))
+    assert report["wall_seconds"] >= sum(step["seconds"] for step in steps) - 1.0
     for stage in STAGES:  # the printed table
         assert stage in output
     assert "total" in output and REPORT in output
@@ -98,13 +93,19 @@ def test_a_stage_alone_reads_the_earlier_ones_from_out_and_keeps_their_timings(t
     data, out, _ = tiny_chain
     before = json.loads((out / REPORT).read_text())["stages"]["perception"]
     code, stdout, err = run_main(monkeypatch, capsys, "train", "all", "--data", str(data), "--out", str(out),
-                                 "--scale", "tiny", "--stages", "calibration")
+                                 "--scale", "tiny", "--stages", "calibration,priors", "--jobs", "2")
     assert code == 0, err
     report = json.loads((out / REPORT).read_text())
     assert list(report["stages"]) == list(STAGES)  # earlier stages' timings are kept
     assert report["stages"]["perception"] == before
     assert report["stages"]["calibration"]["outputs"] == ["object_calibration.safetensors"]
     assert "(earlier run)" in stdout and "$ po3d train calibration" in stdout
+    # --jobs 2: each command a `po3d` process of its own, its output in a log, its CPU seconds measured
+    ran = [step for stage in ("datasets", "calibration", "priors") for step in report["stages"][stage]["steps"]]
+    assert all(Path(step["log"]).is_file() and step["cpu_seconds"] > 0 for step in ran)
+    assert report["stages"]["calibration"]["start"] >= max(step["end"] for step in report["stages"]["datasets"]
+                                                          ["steps"] if "val_s712" in step["step"])
+    assert (out / TIMELINE).stat().st_size > 0
 
 
 def run_main(monkeypatch, capsys, *args: str) -> tuple[int, str, str]:
@@ -279,6 +280,7 @@ def test_full_chain_waits_for_what_each_stage_reads(tmp_path):
     assert {"parser calibration", "parser calibration question_parser_w2_seed2"} <= after["parser ensemble"]
     assert after["perception"] == {"dataset train_s711", "dataset val_s712"}
     assert "viewpoint" in after["projection"] and "centres" in after["projection"]
+    assert steps["centres"][0].kwargs["threads"] == 2  # it trains alone at the end: two threads, as shipped
     weight = dependents(ordered)
     trainings = ("perception", "background", "attributes", "viewpoint", "parser", "priors")
     assert max(trainings, key=weight.get) == "perception" and weight["parser"] < weight["viewpoint"]

@@ -128,6 +128,8 @@ class Scale:
     val: str = "val_s712"
     #: whether the perception, attribute and viewpoint stages also measure on ``val`` (as the shipped runs did)
     evaluate: bool = True
+    #: stages whose command runs on at least this many torch threads whatever ``--threads`` says
+    min_threads: dict[str, int] = field(default_factory=dict)
 
 
 #: The shipped models' settings (models/manifest.json: each entry's command and data_commands).
@@ -161,6 +163,10 @@ FULL = Scale(
                 # two validation seeds: one seed's accuracy differs from another's by a few points (the fit of
                 # 2026-12-02 used four; seeds 717 and 718 were not rebuilt for the refit on evidence version 6)
                 "answer_calibration": ("val_s712", "val_s716")},
+    # the centre head waits for the features and trains last, alone once the viewpoint network and the object
+    # calibration are done: on one thread it left a core idle for 20 minutes (docs/architecture.md); the shipped
+    # command used two
+    min_threads={"centres": 2},
 )
 
 #: A handful of scenes and a few steps a stage: the whole chain in CI (minutes become seconds; toy weights).
@@ -269,6 +275,9 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
     val = path(scale.val)
     held = val if scale.evaluate else None
 
+    def threads_of(stage: str) -> int:
+        return max(threads, scale.min_threads.get(stage, 1))
+
     def step(label: str, fn, prefix: list[str], bar: bool = False, group: str | None = None, **kwargs):
         return Step(label, fn, kwargs, command_words(prefix, kwargs), bar, group)
 
@@ -277,28 +286,30 @@ def plan(scale: Scale, data: Path, out: Path, seed: int, threads: int) -> dict[s
                           scenes=d.scenes, seed=d.seed, workers=1) for d in scale.datasets],
         "parser": parser_steps(scale, out, seed, threads, step),
         "perception": [step("perception", train_perception_command, ["po3d", "train", "perception"],
-                            data=sets("perception"), seed=seed, **scale.perception, threads=threads,
-                            eval_data=held, out=out)],
+                            data=sets("perception"), seed=seed, **scale.perception,
+                            threads=threads_of("perception"), eval_data=held, out=out)],
         "background": [step("background", train_background_command, ["po3d", "train", "background"],
                             data=sets("background")[0], **scale.background, out=out)],
         "centres": [step("centres", train_centres_command, ["po3d", "train", "centres"], data=sets("centres"),
-                         seed=seed, **scale.centres, threads=threads, eval_data=held, model_dir=out, out=out)],
+                         seed=seed, **scale.centres, threads=threads_of("centres"), eval_data=held, model_dir=out,
+                         out=out)],
         "calibration": [step("calibration", train_calibration_command, ["po3d", "train", "calibration"],
-                             data=val, **scale.calibration, threads=threads, out=out, model_dir=out)],
+                             data=val, **scale.calibration, threads=threads_of("calibration"), out=out,
+                             model_dir=out)],
         "attributes": [step("attributes", train_attributes_command, ["po3d", "train", "attributes"],
-                            data=sets("attributes"), seed=seed, **scale.attributes, threads=threads,
-                            eval_data=held, out=out)],
+                            data=sets("attributes"), seed=seed, **scale.attributes,
+                            threads=threads_of("attributes"), eval_data=held, out=out)],
         "viewpoint": [step("viewpoint", train_viewpoint_command, ["po3d", "train", "viewpoint"],
-                           data=sets("viewpoint"), seed=seed, **scale.viewpoint, threads=threads, eval_data=held,
-                           out=out)],
+                           data=sets("viewpoint"), seed=seed, **scale.viewpoint, threads=threads_of("viewpoint"),
+                           eval_data=held, out=out)],
         "projection": [step("projection", train_projection_command, ["po3d", "train", "projection"], data=val,
-                            **scale.projection, threads=threads, out=out, model_dir=out)],
+                            **scale.projection, threads=threads_of("projection"), out=out, model_dir=out)],
         "priors": [step("priors", train_priors, ["po3d", "train", "priors"], data=sets("priors")[0], split="train",
                         out=out)],
         "answer_calibration": [step("answer calibration" + ("" if method == PIPELINE_METHOD else f" ({method})"),
                                     train_answer_calibration_command, ["po3d", "train", "answer-calibration"],
                                     data=sets("answer_calibration"), **scale.answer_calibration,
-                                    threads=threads, out=out, model_dir=out,
+                                    threads=threads_of("answer_calibration"), out=out, model_dir=out,
                                     **({} if method == PIPELINE_METHOD else {"method": method}))
                                for method in CALIBRATABLE],
     }
@@ -567,7 +578,7 @@ def plot_timeline(report: dict, path: Path) -> Path:
     rows = [(stage, step) for stage, row in latest.items() for step in row["steps"]]
     rows.sort(key=lambda item: item[1]["start"])
     colours = {stage: plt.get_cmap("tab20")(index % 20) for index, stage in enumerate(STAGES)}
-    figure, axes = plt.subplots(figsize=(10, 1.5 + 0.3 * len(rows)))
+    figure, axes = plt.subplots(figsize=(11, 1.5 + 0.3 * len(rows)))
     for y, (stage, step) in enumerate(rows):
         axes.barh(y, step["end"] - step["start"], left=step["start"], color=colours[stage], edgecolor="black",
                   linewidth=0.5)
@@ -577,7 +588,7 @@ def plot_timeline(report: dict, path: Path) -> Path:
     axes.set_title(f"po3d train all --scale {report['scale']}: {report.get('wall_seconds', 0):.0f} s wall clock, "
                    f"{report.get('jobs')} commands at a time on {report.get('cpu_count')} cores", fontsize=9)
     handles = [plt.Rectangle((0, 0), 1, 1, color=colours[stage]) for stage in latest]
-    axes.legend(handles, list(latest), fontsize=7, loc="lower right")
+    axes.legend(handles, list(latest), fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     figure.tight_layout()
     figure.savefig(path, dpi=100)
     plt.close(figure)
