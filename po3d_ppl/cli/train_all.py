@@ -22,17 +22,17 @@ import inspect
 import json
 import os
 import shlex
-import subprocess
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
 from po3d_ppl.cli._common import comma_list
+from po3d_ppl.cli.train_schedule import Finished, run_commands
 
 #: Every stage, in the order they run (each reads only what the ones before it wrote).
 STAGES = ("datasets", "parser", "perception", "background", "centres", "calibration", "attributes", "viewpoint",
@@ -164,7 +164,7 @@ FULL = Scale(
                 # 2026-12-02 used four; seeds 717 and 718 were not rebuilt for the refit on evidence version 6)
                 "answer_calibration": ("val_s712", "val_s716")},
     # the centre head waits for the features and trains last, alone once the viewpoint network and the object
-    # calibration are done: on one thread it left a core idle for 20 minutes (docs/architecture.md); the shipped
+    # calibration are done: on one thread it left a core idle for 24 minutes (docs/architecture.md); the shipped
     # command used two
     min_threads={"centres": 2},
 )
@@ -437,11 +437,11 @@ def train_all(data: Path, out: Path, *, seed: int = 0, scale: str = "full", stag
     origin = time.perf_counter()
     report: dict = {}
 
-    def on_finish(step: Step, record: dict) -> None:
+    def on_finish(step: Step, finished: Finished) -> None:
         """Keep a step's record; after a stage's last step, record the stage and write the report (so an
         interrupted chain keeps the timings of what it finished)."""
         nonlocal report
-        records[step.stage].append(record)
+        records[step.stage].append(asdict(finished))
         if len(records[step.stage]) < len(steps[step.stage]):
             return
         rows = records[step.stage]
@@ -462,15 +462,10 @@ def train_all(data: Path, out: Path, *, seed: int = 0, scale: str = "full", stag
     if jobs == 1:
         _run_in_process(ordered, run, console, origin, on_finish)
     else:
-        from dataclasses import asdict
-
-        from po3d_ppl.cli.train_schedule import run_commands
-
         console.rule(f"[bold]{len(run)} stages[/]: {', '.join(run)}", style="cyan")
         console.print(f"{len(ordered)} commands, {jobs} at a time, each as soon as what it reads is trained; "
                       f"logs in {out / 'logs'}", markup=False, highlight=False)
-        run_commands(ordered, jobs, out / "logs", console, _command,
-                     lambda step, finished: on_finish(step, asdict(finished)), origin=origin)
+        run_commands(ordered, jobs, out / "logs", console, _command, on_finish, origin=origin)
     print_report(report, console, ran=run)
     console.print(f"report -> {report_path}", markup=False, highlight=False)
     figure = plot_timeline(report, out / TIMELINE)
@@ -500,7 +495,7 @@ def link(steps: dict[str, list[Step]], run: list[str], scale: Scale) -> list[Ste
 
 
 def _run_in_process(ordered: list[Step], run: list[str], console, origin: float,
-                    on_finish: Callable[[Step, dict], None]) -> None:
+                    on_finish: Callable[[Step, Finished], None]) -> None:
     """``--jobs 1``: every step in this process, one after another, each with its command's own progress bars."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -518,9 +513,8 @@ def _run_in_process(ordered: list[Step], run: list[str], console, origin: float,
         else:
             invoke(step.fn, **step.kwargs)
         end = time.perf_counter()
-        on_finish(step, {"step": step.label, "command": shlex.join(step.words), "seconds": round(end - start, 1),
-                         "cpu_seconds": round(_cpu_seconds() - cpu, 1), "start": round(start - origin, 1),
-                         "end": round(end - origin, 1)})
+        on_finish(step, Finished(step.label, shlex.join(step.words), round(end - start, 1),
+                                 round(_cpu_seconds() - cpu, 1), round(start - origin, 1), round(end - origin, 1)))
 
 
 def _command(step: Step) -> list[str]:

@@ -44,7 +44,7 @@ class Finished:
     cpu_seconds: float
     start: float
     end: float
-    log: str
+    log: str | None = None  # None: run in the calling process (``po3d train all --jobs 1``)
 
 
 #: how often the running commands are checked (seconds)

@@ -242,6 +242,11 @@ def summarise(outcomes: Sequence[ImageOutcome], min_pixels: int = 200, occluded_
     return figures
 
 
+def _has_boxes(img: ImageOutcome) -> bool:
+    """Whether the outcome holds every proposal's and object's box (outcomes saved before they were kept do not)."""
+    return len(img.proposal_boxes) == img.proposals and all(o.box for o in img.objects)
+
+
 def believed_detection(outcomes: Sequence[ImageOutcome], min_pixels: int = 200, min_iou: float = 0.5) -> dict:
     """Detection counting only the proposals the evidence believes (existence log-odds > 0), matched afresh among
     themselves, and the existence table's calibration (its sigmoid against whether the proposal matches an
@@ -252,7 +257,7 @@ def believed_detection(outcomes: Sequence[ImageOutcome], min_pixels: int = 200, 
     confidences: list[float] = []
     matched: list[bool] = []
     for img in outcomes:
-        if len(img.proposal_boxes) != img.proposals or any(not o.box for o in img.objects):
+        if not _has_boxes(img):
             continue
         believed = [k for k, value in enumerate(img.existence_logodds) if value > 0]
         boxes = np.array([img.proposal_boxes[k] for k in believed], dtype=np.float64).reshape(-1, 4)
@@ -293,7 +298,7 @@ def image_failures(img: ImageOutcome, min_pixels: int = 200, near_iou: float = 0
       went unmatched, and a ``phantom`` when it overlaps none.
 
     None for an outcome saved before boxes were recorded."""
-    if len(img.proposal_boxes) != img.proposals or any(not o.box for o in img.objects):
+    if not _has_boxes(img):
         return None
 
     def most_overlapping(box: Sequence[float], others: Sequence[Sequence[float]]) -> int:

@@ -1592,7 +1592,7 @@ def _record(accepted: list[Hypothesis], new_scores: list[float], tables: list, c
         positions=torch.tensor([[h.x, h.y, 0.0] for h in accepted], dtype=torch.float64).reshape(n, 3),
         depths=torch.tensor([h.depth for h in accepted], dtype=torch.float64),
         rotations=torch.tensor([h.rotation for h in accepted], dtype=torch.float64),
-        boxes=xywh_boxes(masks), masks=masks, ownership=ownership, camera=camera, from_region=from_region.reshape(n),
+        boxes=xywh_boxes(masks), masks=masks, ownership=ownership, camera=camera, from_region=from_region,
         poses=list(accepted),
         notes=NOTES + ((RAW_NOTE,) if calibration == TableCalibration() else ()))
 
