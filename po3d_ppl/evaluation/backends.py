@@ -112,8 +112,9 @@ class SimulatedBackend:
 #: 12: masks and boxes redrawn by the most likely scene's subtype silhouettes (``scene_parser.seen_ownership``).
 #: 13: touching proposals read as one object of one colour are merged (``scene_parser.one_object_merges``).
 #: 14: the camera height compares each candidate's silhouettes at their best shift
-#: (``SceneParserConfig.height_shift_px``).
-EVIDENCE_VERSION = 14
+#: (``SceneParserConfig.height_shift_px``). 15: the post-filter lowers existence by at most 1 nat
+#: (``SceneParserConfig.post_filter_max_nats``).
+EVIDENCE_VERSION = 15
 
 
 @dataclass(frozen=True)
