@@ -280,7 +280,7 @@ def test_full_chain_waits_for_what_each_stage_reads(tmp_path):
     assert {"parser calibration", "parser calibration question_parser_w2_seed2"} <= after["parser ensemble"]
     assert after["perception"] == {"dataset train_s711", "dataset val_s712"}
     assert "viewpoint" in after["projection"] and "centres" in after["projection"]
-    assert steps["centres"][0].kwargs["threads"] == 2  # it trains alone at the end: two threads, as shipped
+    assert steps["centres"][0].kwargs["threads"] == 2  # two threads whatever --threads says, as shipped
     weight = dependents(ordered)
     trainings = ("perception", "background", "attributes", "viewpoint", "parser", "priors")
     assert max(trainings, key=weight.get) == "perception" and weight["parser"] < weight["viewpoint"]

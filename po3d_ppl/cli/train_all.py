@@ -163,9 +163,9 @@ FULL = Scale(
                 # two validation seeds: one seed's accuracy differs from another's by a few points (the fit of
                 # 2026-12-02 used four; seeds 717 and 718 were not rebuilt for the refit on evidence version 6)
                 "answer_calibration": ("val_s712", "val_s716")},
-    # the centre head waits for the features and trains last, alone once the viewpoint network and the object
-    # calibration are done: on one thread it left a core idle for 24 minutes (docs/architecture.md); the shipped
-    # command used two
+    # two threads, as the shipped command: in the object parser's chain the centre head trains last and alone, and
+    # on one thread it left a core idle for 24 minutes; beside the attribute and viewpoint networks (Perception I
+    # and II together) it shares the cores instead: 1,824 s wall, 2,256 CPU s (docs/architecture.md)
     min_threads={"centres": 2},
 )
 
