@@ -50,3 +50,19 @@ def test_the_sweep_check_names_the_noise_levels_where_ours_does_not_win():
     name, met, detail = _sweep_check(exact + level(0.1, 0.04, 0.03) + level(0.2, 0.03, 0.05))
     assert not met and detail == "at 1 of 2 noise levels (not at 0.1)"
     assert not _sweep_check(exact)[1]  # noise 0 alone measures nothing
+
+
+def test_a_comparison_the_paired_intervals_cannot_resolve_is_judged_not_resolved():
+    from po3d_ppl.cli.results import VERDICT_TEXT, paired_verdict
+    from po3d_ppl.evaluation.significance import Difference
+
+    def ece(baseline, low, high):
+        return Difference("ece", "ours", baseline, (low + high) / 2, low, high, 0.95, 1000)
+
+    better = [ece("soft", -0.02, -0.01), ece("thresholded", -0.2, -0.1)]
+    assert paired_verdict(True, better, "ours", "ece") is True
+    straddling = [ece("soft", -0.0057, 0.0042), ece("thresholded", -0.2, -0.1)]
+    assert VERDICT_TEXT[paired_verdict(True, straddling, "ours", "ece")] == "not resolved"
+    assert paired_verdict(False, better, "ours", "ece") is False  # the point estimates decide against
+    assert paired_verdict(True, [ece("soft", 0.01, 0.02)], "ours", "ece") is False  # an interval says worse
+    assert paired_verdict(True, straddling, "ours", "accuracy") is True  # no intervals for that metric

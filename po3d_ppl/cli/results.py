@@ -221,30 +221,51 @@ def _answer_tables_run(run):
     return replace(run, variants=tuple(v for v in run.variants if v not in baselines))
 
 
-def _ece_checks(by_variant: dict, differences: list) -> list[tuple[str, bool, str]]:
+#: A target's verdict: met, missed, or None where the point estimates meet it but a paired interval over images
+#: contains 0 (the split cannot tell the methods apart).
+Verdict = bool | None
+VERDICT_TEXT = {True: "yes", False: "no", None: "not resolved"}
+
+
+def paired_verdict(beats: bool, differences: list, method: str, metric: str) -> Verdict:
+    """``beats`` (the point estimates' comparison) checked against the paired intervals of ``method`` against each
+    baseline in ``metric``: no when the estimates or any interval say worse, yes when every interval says better,
+    otherwise not resolved. Without intervals the point estimates decide."""
+    shown = [d.better for d in differences if d.method == method and d.metric == metric]
+    if not beats or False in shown:
+        return False
+    return None if None in shown else True
+
+
+def _intervals(differences: list, method: str, metric: str) -> str:
+    """The paired intervals of ``method`` against its baselines in ``metric``, as the end of a check's detail."""
+    shown = [d for d in differences if d.method == method and d.metric == metric]
+    return (f"; differences, {100 * shown[0].level:.0f}% intervals over images: "
+            + ", ".join(f"{d.method} - {d.baseline} {d.text()}" for d in shown)) if shown else ""
+
+
+def _ece_checks(by_variant: dict, differences: list) -> list[tuple[str, Verdict, str]]:
     """The ECE comparison of the evaluation issue, raw posteriors against raw, and each method through its own
     answer calibration (fitted on the same validation questions) against the others': a baseline's raw ECE pays
     for miscalibration a monotone map fitted on validation removes, so only the second is like for like. Each
     detail ends with the paired bootstrap intervals of the ECE differences (:mod:`po3d_ppl.evaluation.significance`),
-    so a gap the split cannot resolve reads as one."""
+    and a gap the split cannot resolve is judged so (:func:`paired_verdict`)."""
     from po3d_ppl.evaluation.runner import calibrated_variant
-
-    def intervals(method: str) -> str:
-        shown = [d for d in differences if d.method == method and d.metric == "ece"]
-        return (f"; differences, {100 * shown[0].level:.0f}% intervals over images: "
-                + ", ".join(f"{d.method} - {d.baseline} {d.text()}" for d in shown)) if shown else ""
 
     baselines = [v for v in ("thresholded", "soft") if v in by_variant]
     ours = by_variant["ours"]
-    checks = [("ours beats them in ECE (raw posteriors)", all(ours.ece < by_variant[v].ece for v in baselines),
-               ", ".join(f"{v} {by_variant[v].ece:.4f}" for v in ["ours", *baselines]) + intervals("ours"))]
+    checks = [("ours beats them in ECE (raw posteriors)",
+               paired_verdict(all(ours.ece < by_variant[v].ece for v in baselines), differences, "ours", "ece"),
+               ", ".join(f"{v} {by_variant[v].ece:.4f}" for v in ["ours", *baselines])
+               + _intervals(differences, "ours", "ece"))]
     calibrated = [calibrated_variant(v) for v in ["ours", *baselines]]
     if all(v in by_variant for v in calibrated):
         mine, others = by_variant[calibrated[0]], [by_variant[v] for v in calibrated[1:]]
         checks.append(("ours beats them in ECE (each recalibrated on the validation seeds)",
-                       all(mine.ece < other.ece for other in others),
+                       paired_verdict(all(mine.ece < other.ece for other in others), differences, calibrated[0],
+                                      "ece"),
                        ", ".join(f"{by_variant[v].method} {by_variant[v].ece:.4f}" for v in calibrated)
-                       + intervals(calibrated[0])))
+                       + _intervals(differences, calibrated[0], "ece")))
     else:
         missing = ", ".join(v for v in calibrated if v not in by_variant)
         checks.append(("ours beats them in ECE (each recalibrated on the validation seeds)", False,
@@ -283,8 +304,11 @@ def _markdown(command, run, perception, rows, reports, by_variant, differences, 
     per_question = {k: 1000 * v / max(len(run.records), 1) for k, v in run.timings.items()}
     checks = [
         ("test split >= 500 images", run.images >= 500, f"{run.images} images, {len(run.records)} questions"),
-        ("ours beats thresholded and soft in accuracy", best_baseline is not None and ours.accuracy >
-         best_baseline.accuracy, f"ours {ours.accuracy:.4f}, best baseline {best_baseline.accuracy:.4f}"),
+        ("ours beats thresholded and soft in accuracy",
+         paired_verdict(best_baseline is not None and ours.accuracy > best_baseline.accuracy, differences, "ours",
+                        "accuracy"),
+         f"ours {ours.accuracy:.4f}, best baseline {best_baseline.accuracy:.4f}"
+         + _intervals(differences, "ours", "accuracy")),
         *_ece_checks(by_variant, differences),
         *([_sweep_check(points)] if points else []),
         ("ECE <= 0.03 on perception evidence", cal is not None and cal.ece <= TARGET_ECE,
@@ -299,7 +323,9 @@ def _markdown(command, run, perception, rows, reports, by_variant, differences, 
         + ", ".join(f"{k} {_prior_text(v)}" for k, v in run.priors.items())
         + f". Report took {seconds:.0f} s (evidence cache: {run.cache}).", "",
         "## Targets (evaluation issue)", "", "| target | met | measured |", "|---|---|---|",
-        *[f"| {name} | {'yes' if ok else 'no'} | {detail} |" for name, ok, detail in checks], "",
+        *[f"| {name} | {VERDICT_TEXT[met]} | {detail} |" for name, met, detail in checks], "",
+        "\"not resolved\": the point estimates meet the target, but a paired bootstrap interval over images (shown) "
+        "contains 0.", "",
         "## Perception", "", _evidence_markdown(perception), "",
         "## Accuracy (paper's Table 1 columns, %)", "",
         "All methods reason over the same perception evidence per image; `oracle` is the reference executor on "
