@@ -342,3 +342,20 @@ def test_post_filter_lowers_existence_by_at_most_the_bound_where_the_attributes_
     assert float(unbounded[1]) < -10.0 and unbounded[0] == pytest.approx(2.0, abs=1e-6)
     with pytest.raises(Exception, match="post_filter_max_nats"):
         SceneParserConfig(post_filter_max_nats=-1.0)
+
+
+def test_the_most_likely_subtypes_are_projected_however_unlikely(parsed):
+    """A misread object's true subtype is often far below the top one; its slot must hold a projection, not the
+    floor ("not visible") that an unprojected hypothesis keeps."""
+    evidence, config = parsed.evidence, SceneParserConfig()
+    floor = -np.log((1 - config.projection_floor) / config.projection_floor)
+    for i in range(evidence.num_objects):
+        probs = torch.softmax(evidence.subtype_loglik[i], -1)
+        top = torch.argsort(probs, descending=True)[: config.max_subtypes]
+        assert float(probs[top[-1]]) < 0.002  # the table is sharp: the old weight threshold dropped these
+        for s in top.tolist():
+            parts = len(ontology.PARTS[ontology.SUBTYPES[s]])
+            shown = evidence.part_visible_logodds[i, s, :parts]
+            assert float(shown.max()) > floor + 1e-3, (i, ontology.SUBTYPES[s])
+        projected = {p.subtype for p in parsed.projections if p.proposal == i}
+        assert projected == set(top.tolist())
