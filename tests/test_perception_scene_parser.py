@@ -347,8 +347,10 @@ def test_post_filter_lowers_existence_by_at_most_the_bound_where_the_attributes_
 def test_the_most_likely_subtypes_are_projected_however_unlikely(parsed):
     """A misread object's true subtype is often far below the top one; its slot must hold a projection, not the
     floor ("not visible") that an unprojected hypothesis keeps."""
+    from po3d_ppl.perception.projection_calibration import edge_logodds
+
     evidence, config = parsed.evidence, SceneParserConfig()
-    floor = -np.log((1 - config.projection_floor) / config.projection_floor)
+    floor = -edge_logodds(config.projection_floor)
     for i in range(evidence.num_objects):
         probs = torch.softmax(evidence.subtype_loglik[i], -1)
         top = torch.argsort(probs, descending=True)[: config.max_subtypes]

@@ -78,8 +78,8 @@ class SceneParserConfig:
     #: weight: on seed 716, 0.02 / 5 left 17 of 221 occluded parts unprojected; 0.002 / 8 raised part-occlusion F1
     #: 0.564 -> 0.579. Since the outline's subtype evidence sharpened the table, a misread object's true subtype
     #: mostly falls below 0.002: on seed 712, 22 of the 82 missed occluded parts sat on such never-projected slots.
-    #: 0 projects the 8 most likely always (part-visibility NLL 0.118 -> 0.107 and part-occlusion F1 0.748 -> 0.755
-    #: on 716 with the tables calibrated on 712; the object tables unchanged; about 1 s more an image).
+    #: 0 projects the ``max_subtypes`` most likely always (on 716, with the tables calibrated on 712: part-visibility
+    #: NLL 0.118 -> 0.107, part-occlusion F1 0.748 -> 0.755; the object tables unchanged; about 1 s more an image).
     min_subtype_weight: float = 0.0
     max_subtypes: int = 8
     #: Probability floor on each side of a projected event, before log-odds.
