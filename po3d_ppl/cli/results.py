@@ -227,19 +227,24 @@ Verdict = bool | None
 VERDICT_TEXT = {True: "yes", False: "no", None: "not resolved"}
 
 
+def _paired(differences: list, method: str, metric: str) -> list:
+    """The paired differences of ``method`` against each of its baselines in ``metric``."""
+    return [d for d in differences if d.method == method and d.metric == metric]
+
+
 def paired_verdict(beats: bool, differences: list, method: str, metric: str) -> Verdict:
     """``beats`` (the point estimates' comparison) checked against the paired intervals of ``method`` against each
     baseline in ``metric``: no when the estimates or any interval say worse, yes when every interval says better,
     otherwise not resolved. Without intervals the point estimates decide."""
-    shown = [d.better for d in differences if d.method == method and d.metric == metric]
-    if not beats or False in shown:
+    said = [d.better for d in _paired(differences, method, metric)]
+    if not beats or False in said:
         return False
-    return None if None in shown else True
+    return None if None in said else True
 
 
 def _intervals(differences: list, method: str, metric: str) -> str:
     """The paired intervals of ``method`` against its baselines in ``metric``, as the end of a check's detail."""
-    shown = [d for d in differences if d.method == method and d.metric == metric]
+    shown = _paired(differences, method, metric)
     return (f"; differences, {100 * shown[0].level:.0f}% intervals over images: "
             + ", ".join(f"{d.method} - {d.baseline} {d.text()}" for d in shown)) if shown else ""
 
