@@ -184,21 +184,28 @@ _CACHE = typer.Option(None, "--cache", help="Evidence cache directory (shared wi
 def evidence_figures(data: Path, split: str, limit: int | None, store, console, backend=None,
                      gallery: Path | None = None, gallery_images: int = 12) -> dict:
     """Perception's figures on ``split`` from the evidence cache ``store`` (each image parsed once): attributes,
-    parts and occlusion, the objects under the scene parser's camera, and the projected tables' calibration (each
-    read as its posterior under the priors the image pipeline uses). ``backend``: a loaded ``ImageBackend`` to
+    parts and occlusion, the objects under the scene parser's camera, and the calibration of the projected tables
+    (each read as its posterior under the priors the image pipeline uses) and of the object tables. ``backend``: a loaded ``ImageBackend`` to
     reuse. ``gallery``: also draw the ``gallery_images`` images with the most detection failures there
     (:mod:`po3d_ppl.evaluation.failure_gallery`)."""
+    import torch
+
     from po3d_ppl.evaluation.backends import ImageBackend
     from po3d_ppl.evaluation.evidence_scores import EvidenceCounts
     from po3d_ppl.evaluation.objects import EvidenceAsProposals, score_image, summarise
-    from po3d_ppl.evaluation.projection import as_tensors, measure
+    from po3d_ppl.evaluation.projection import as_tensors, measure, object_entries, object_figures
     from po3d_ppl.perception.priors import load_priors
 
     backend = backend or ImageBackend()
     counts, outcomes = EvidenceCounts(priors=backend.scene_priors(load_priors())), []
+    object_rows: dict[str, tuple[list, list]] = {}
     for evidence, scene in _cached_evidence(data, split, limit, store, backend, console, "evidence"):
         counts.add(evidence, scene)
         outcomes.append(score_image(EvidenceAsProposals.of(evidence), scene, scene.image_filename, 0.0))
+        for name, (rows, truths) in object_entries(evidence, scene).items():
+            kept = object_rows.setdefault(name, ([], []))
+            kept[0].extend(rows)
+            kept[1].extend(truths)
     if gallery is not None:
         from po3d_ppl.evaluation.failure_gallery import write_gallery
 
@@ -207,6 +214,8 @@ def evidence_figures(data: Path, split: str, limit: int | None, store, console, 
         console.print(f"detection failures drawn: {index}", markup=False, highlight=False)
     return {"evidence": counts.figures(), "objects": summarise(outcomes),
             "projected_tables": measure(None, as_tensors(counts.entries)),
+            "object_tables": {name: object_figures(torch.tensor(rows, dtype=torch.float64), torch.tensor(truths))
+                              for name, (rows, truths) in object_rows.items() if truths},
             "cache": {"hits": store.hits, "misses": store.misses}}
 
 
@@ -241,9 +250,10 @@ def train_projection_command(
     model_dir: Path = typer.Option(None, "--model-dir", help="The perception models whose projections to "
                                                              "calibrate (default: the shipped models/)."),
 ) -> None:
-    """Fit one Platt scaling per projected table (occlusion, occluders, part visibility, part occlusion) on a
-    validation dataset's raw evidence; write models/projection_calibration.safetensors with its manifest entry
-    and each table's ECE before and after."""
+    """Fit one Platt scaling per projected table (occlusion, occluders, part visibility, part occlusion), one scale
+    on the part-look table and one on each object table (subtype, colour, material, size) on a validation dataset's
+    raw evidence; write models/projection_calibration.safetensors with its manifest entry and each table's ECE
+    before and after."""
     import torch
     from rich.console import Console
 

@@ -85,6 +85,10 @@ def _evidence_markdown(figures: dict) -> str:
     for name, row in figures["projected_tables"].items():
         raw = row["raw"]
         lines.append(f"| {name} | {raw['entries']} | {raw['positive_rate']} | {raw['ece']} | {raw['nll']} |")
+    if figures.get("object_tables"):
+        lines += ["", "| object table (matched proposals) | rows | accuracy | ECE | NLL |", "|---|---|---|---|---|"]
+        for name, row in figures["object_tables"].items():
+            lines.append(f"| {name} | {row['rows']} | {row['accuracy']} | {row['ece']} | {row['nll']} |")
     return "\n".join(lines)
 
 

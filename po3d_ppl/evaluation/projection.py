@@ -6,7 +6,8 @@ the true subtype's part slots, ordered pairs of matched objects. Each table gets
 shifted at the projection's floor and ceiling (:func:`fit_edge_platt`; the module docstring of
 :mod:`~po3d_ppl.perception.projection_calibration` says why), and its ECE (15 bins, the event's probability against
 its frequency) before and after. The part-look table gets one scale on its log-likelihoods
-(:func:`fit_style_scale`), over the visible parts of the true subtype's slots.
+(:func:`fit_style_scale`), over the visible parts of the true subtype's slots, and each object table one scale
+(:func:`fit_object_scale`), over the matched proposals' rows.
 """
 
 from __future__ import annotations
@@ -21,7 +22,13 @@ from po3d_ppl import ontology
 from po3d_ppl.evidence import NUM_STYLES
 from po3d_ppl.evaluation.calibration import binned_calibration_error
 from po3d_ppl.evaluation.objects import fit_platt, match_boxes, require_both_outcomes
-from po3d_ppl.perception.projection_calibration import STYLE_TABLE, TABLES, ProjectionCalibration, edge_states
+from po3d_ppl.perception.projection_calibration import (
+    OBJECT_TABLES,
+    STYLE_TABLE,
+    TABLES,
+    ProjectionCalibration,
+    edge_states,
+)
 
 
 def matched_proposals(evidence, scene, min_iou: float = 0.5):
@@ -75,21 +82,37 @@ def style_entries(evidence, scene, min_iou: float = 0.5) -> tuple[list[list[floa
     return tables, truths
 
 
+def object_entries(evidence, scene, min_iou: float = 0.5) -> dict[str, tuple[list[list[float]], list[int]]]:
+    """Per object table (``OBJECT_TABLES``): the matched proposals' rows and the index of the object's true value."""
+    from po3d_ppl.perception.attributes import OBJECT_HEADS
+
+    out: dict[str, tuple[list[list[float]], list[int]]] = {name: ([], []) for name in OBJECT_TABLES}
+    for i, o, _, _ in matched_proposals(evidence, scene, min_iou)[0]:
+        for name, attribute in OBJECT_TABLES.items():
+            out[name][0].append(getattr(evidence, name)[i].double().tolist())
+            out[name][1].append(OBJECT_HEADS[attribute].index(getattr(o, attribute)))
+    return out
+
+
 def collect(pairs: Iterable[tuple[object, object]]) -> dict[str, tuple[torch.Tensor, torch.Tensor]]:
-    """Every binary table's (log-odds, truth) over ``(evidence, scene)`` pairs, and under ``STYLE_TABLE`` the
-    part looks' (log-likelihoods ``[M, 17]``, true look ``[M]``)."""
+    """Every binary table's (log-odds, truth) over ``(evidence, scene)`` pairs; under ``STYLE_TABLE`` the part
+    looks' (log-likelihoods ``[M, 17]``, true look ``[M]``) and under each of ``OBJECT_TABLES`` the matched
+    proposals' (log-likelihoods ``[M, K]``, true value ``[M]``)."""
     values: dict[str, tuple[list[float], list[bool]]] = {name: ([], []) for name in TABLES}
-    looks: tuple[list[list[float]], list[int]] = ([], [])
+    categorical: dict[str, tuple[list[list[float]], list[int]]] = {name: ([], []) for name in (STYLE_TABLE,
+                                                                                                *OBJECT_TABLES)}
     for evidence, scene in pairs:
         for name, (x, y) in table_entries(evidence, scene).items():
             values[name][0].extend(x)
             values[name][1].extend(y)
-        tables, truths = style_entries(evidence, scene)
-        looks[0].extend(tables)
-        looks[1].extend(truths)
+        for name, (tables, truths) in {STYLE_TABLE: style_entries(evidence, scene),
+                                       **object_entries(evidence, scene)}.items():
+            categorical[name][0].extend(tables)
+            categorical[name][1].extend(truths)
     out = as_tensors(values)
-    if looks[1]:
-        out[STYLE_TABLE] = (torch.tensor(looks[0], dtype=torch.float64), torch.tensor(looks[1], dtype=torch.long))
+    for name, (tables, truths) in categorical.items():
+        if truths:
+            out[name] = (torch.tensor(tables, dtype=torch.float64), torch.tensor(truths, dtype=torch.long))
     return out
 
 
@@ -132,6 +155,25 @@ def style_figures(tables: torch.Tensor, truth: torch.Tensor, recoloured: float, 
             "accuracy": round(float(hit.double().mean()), 4),
             "accuracy_plain": round(float(hit[plain].double().mean()), 4) if plain.any() else None,
             "accuracy_recoloured": round(float(hit[~plain].double().mean()), 4) if (~plain).any() else None}
+
+
+def object_figures(tables: torch.Tensor, truth: torch.Tensor, scale: float = 1.0) -> dict:
+    """ECE of the top value (15 bins), NLL of the true value and accuracy of an object table's rows times
+    ``scale`` under the scene model's uniform prior."""
+    from po3d_ppl.perception.calibration import top_label_ece
+
+    log_post = torch.log_softmax(tables.double() * scale, dim=-1)
+    return {"rows": int(truth.numel()), "ece": round(top_label_ece(log_post, truth), 4),
+            "nll": round(float(-log_post.gather(1, truth[:, None]).mean()), 4),
+            "accuracy": round(float((log_post.argmax(-1) == truth).double().mean()), 4)}
+
+
+def fit_object_scale(tables: torch.Tensor, truth: torch.Tensor, low: float = 0.05, high: float = 4.0) -> float:
+    """The scale in [low, high] minimising the NLL of the true values of an object table's rows: one over the
+    temperature :func:`~po3d_ppl.perception.calibration.fit_temperature` finds (the priors are uniform)."""
+    from po3d_ppl.perception.calibration import fit_temperature
+
+    return 1.0 / fit_temperature(tables, truth, low=1.0 / high, high=1.0 / low)
 
 
 def fit_style_scale(tables: torch.Tensor, truth: torch.Tensor, low: float = 0.25, high: float = 8.0) -> float:
@@ -190,9 +232,16 @@ def fit_projection_calibration(entries: dict[str, tuple[torch.Tensor, torch.Tens
                                ) -> tuple[ProjectionCalibration, dict]:
     """The Platt scaling (with edge states at ``edge``, the projection floor's log-odds; None: plain) of every
     binary table with both outcomes present, the part-look scale (when ``STYLE_TABLE`` entries hold recoloured and
-    plain parts), and each table's figures before and after."""
+    plain parts), the scale of each object table with entries, and each table's figures before and after."""
     platt, base_rate, report = {}, {}, {}
     entries = dict(entries)
+    object_scales = {}
+    for name in OBJECT_TABLES:
+        rows = entries.pop(name, None)
+        if rows is not None and rows[1].numel():
+            object_scales[name] = fit_object_scale(*rows)
+            report[name] = {"before": object_figures(*rows), "scale": round(object_scales[name], 4),
+                            "after": object_figures(*rows, object_scales[name])}
     style_scale = None
     looks = entries.pop(STYLE_TABLE, None)
     if looks is not None and 0 < int((looks[1] > 0).sum()) < looks[1].numel():
@@ -207,7 +256,7 @@ def fit_projection_calibration(entries: dict[str, tuple[torch.Tensor, torch.Tens
             continue
         platt[name] = fit_edge_platt(x, y, edge)
         base_rate[name] = float(y.double().mean())
-    calibration = ProjectionCalibration(platt, base_rate, style_scale, edge)
+    calibration = ProjectionCalibration(platt, base_rate, style_scale, edge, object_scales)
     for name, values in platt.items():
         x, y = entries[name]
         report[name] = {"before": table_figures(x, y),
@@ -221,6 +270,11 @@ def measure(calibration: ProjectionCalibration | None, entries: dict[str, tuple[
     """Each table's figures as they are and (with ``calibration``) after it, on entries of another split."""
     out = {}
     for name, (x, y) in entries.items():
+        if name in OBJECT_TABLES and y.numel():
+            scale = None if calibration is None else calibration.object_scales.get(name)
+            out[name] = {"raw": object_figures(x, y),
+                         **({"calibrated": object_figures(x, y, scale)} if scale is not None else {})}
+            continue
         if y.numel() == 0 or name == STYLE_TABLE:
             continue
         row = {"raw": table_figures(x, y)}

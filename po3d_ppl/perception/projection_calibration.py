@@ -1,6 +1,6 @@
-"""Calibration of the projected tables: one Platt scaling with edge states (``a * logodds + b``, shifted at the
-projection's floor and ceiling) per binary table of the evidence, and one scale on the part-look table's
-log-likelihoods.
+"""Calibration of the scene parser's evidence: one Platt scaling with edge states (``a * logodds + b``, shifted at
+the projection's floor and ceiling) per binary table the projection fills, one scale on the part-look table's
+log-likelihoods, and one scale on each object table (subtype, colour, material, size).
 
 The projection (:mod:`po3d_ppl.perception.scene_parser`) reads "part p is visible", "object i is occluded by j"
 and so on off renderings of its hypotheses and squashes their weighted frequency into log-odds with a fixed floor
@@ -31,6 +31,13 @@ attribute network through projected part masks, so its confidence depends on whe
 its log-likelihoods is fitted by the negative log-likelihood of the true look under the validation parts' own
 rate of recoloured parts (the scene model multiplies the table by that prior): on seed 712 it is 1.22, the table
 was under-confident, and "recoloured" lost to the prior even for well-placed parts (docs/perception.md).
+
+**The object tables** are sums of readings calibrated one by one: the subtype table adds the object parser's
+category, the attribute network's subtype and the silhouette's subtype term; the size table the object parser's
+size and the attribute network's. Each reading was calibrated alone (the attribute network on true masks, where its
+size head never errs and its temperature went to the grid's floor), so the sums count shared evidence twice and are
+over-confident through the parser's masks. One scale per table (one over a temperature) is fitted by the NLL of the
+matched objects' true values; the scene model's priors over them are uniform, so no prior enters the fit.
 """
 
 from __future__ import annotations
@@ -58,6 +65,9 @@ TABLES = ("occluded_logodds", "occludes_logodds", "part_visible_logodds", "part_
           "part_occludes_logodds")
 #: The categorical table scaled as a whole (one scale on its log-likelihoods).
 STYLE_TABLE = "part_style_loglik"
+#: The object tables scaled as wholes (one scale each), with the scene attribute each one reads.
+OBJECT_TABLES = {"subtype_loglik": "subtype", "color_loglik": "color", "material_loglik": "material",
+                 "size_loglik": "size"}
 #: The file's entry holding the edge log-odds.
 EDGE = "edge"
 #: The ``ScenePriors`` field of each table.
@@ -87,11 +97,18 @@ class ProjectionCalibration:
     style_scale: float | None = None
     #: The projection's floor log-odds (:func:`edge_logodds`) the shifts apply at; None: plain Platt scaling.
     edge: float | None = None
+    #: Multiplies each listed table of ``OBJECT_TABLES`` (one over its fitted temperature).
+    object_scales: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.style_scale is not None and not (math.isfinite(self.style_scale) and self.style_scale > 0):
             raise InputError("ProjectionCalibration", f"the part-look scale must be finite and > 0, got "
                                                       f"{self.style_scale}")
+        for name, scale in self.object_scales.items():
+            if name not in OBJECT_TABLES or not (math.isfinite(scale) and scale > 0):
+                raise InputError("ProjectionCalibration", f"object table {name!r}: expected one of "
+                                                          f"{', '.join(OBJECT_TABLES)} with a finite scale > 0, "
+                                                          f"got {scale}")
         if self.edge is not None and not (math.isfinite(self.edge) and self.edge > 0):
             raise InputError("ProjectionCalibration", f"the edge log-odds must be finite and > 0, got {self.edge}")
         padded = {}
@@ -149,6 +166,8 @@ class ProjectionCalibration:
             changes[name] = scaled
         if self.style_scale is not None:
             changes[STYLE_TABLE] = evidence.part_style_loglik * self.style_scale
+        for name, scale in self.object_scales.items():
+            changes[name] = getattr(evidence, name) * scale
         return dataclasses.replace(evidence, **changes)
 
     def save(self, directory: Path) -> Path:
@@ -161,18 +180,21 @@ class ProjectionCalibration:
             tensors[STYLE_TABLE] = torch.tensor([self.style_scale], dtype=torch.float64)
         if self.edge is not None:
             tensors[EDGE] = torch.tensor([self.edge], dtype=torch.float64)
+        for name, scale in self.object_scales.items():
+            tensors[name] = torch.tensor([scale], dtype=torch.float64)
         save_file(tensors, str(path), metadata={"format": FORMAT})
         path.chmod(0o644)
         return path
 
     def to_dict(self) -> dict[str, list[float]]:
-        """``{table: [scale, bias, floor_shift, ceiling_shift, base_rate]}``, ``{"part_style_loglik": [scale]}``
-        and ``{"edge": [log-odds]}`` when fitted."""
+        """``{table: [scale, bias, floor_shift, ceiling_shift, base_rate]}``, and ``{"part_style_loglik": [scale]}``,
+        ``{"edge": [log-odds]}`` and ``{object table: [scale]}`` when fitted."""
         out = {name: [*values, self.base_rate.get(name)] for name, values in self.platt.items()}
         if self.style_scale is not None:
             out[STYLE_TABLE] = [self.style_scale]
         if self.edge is not None:
             out[EDGE] = [self.edge]
+        out.update({name: [scale] for name, scale in self.object_scales.items()})
         return out
 
 
@@ -185,10 +207,14 @@ def load_projection_calibration(directory: Path | str | None = None) -> Projecti
         return None
     path, _, tensors = load_tensors(MODEL_NAME, directory, RETRAIN, FORMAT)
     try:
-        binary = {name: v for name, v in tensors.items() if name not in (STYLE_TABLE, EDGE)}
+        binary = {name: v for name, v in tensors.items() if name in TABLES}
         style, edge = tensors.get(STYLE_TABLE), tensors.get(EDGE)
+        unknown = set(tensors) - set(TABLES) - set(OBJECT_TABLES) - {STYLE_TABLE, EDGE}
+        if unknown:
+            raise ValueError(f"unknown entries {sorted(unknown)}")
         return ProjectionCalibration({name: tuple(float(x) for x in v[:4]) for name, v in binary.items()},
                                      {name: float(v[4]) for name, v in binary.items()},
-                                     None if style is None else float(style[0]), None if edge is None else float(edge[0]))
+                                     None if style is None else float(style[0]), None if edge is None else float(edge[0]),
+                                     {name: float(tensors[name][0]) for name in OBJECT_TABLES if name in tensors})
     except (ValueError, IndexError, TypeError, InputError) as exc:
         raise ModelFileError(f"cannot load the projection calibration from {path} ({exc}); {RETRAIN}") from None
