@@ -35,6 +35,10 @@ def test_report_writes_every_section_and_the_command_that_made_it(shared_dataset
     assert "| ours_calibrated |" in table1 and "soft_calibrated" not in table1  # only the calibration table
     assert {row["priors"] for row in payload["priors"]} == {"hand-set", "fitted (shipped)"}
     assert payload["vqa"]["images"] == 1 and payload["perception"]["cache"]["misses"] == 1
+    object_tables = payload["perception"]["object_tables"]  # the evidence's object tables, as reasoning reads them
+    assert set(object_tables) == {"subtype_loglik", "color_loglik", "material_loglik", "size_loglik"}
+    assert all(row["rows"] == 0 and row["ece"] is None or 0 <= row["ece"] <= 1 for row in object_tables.values())
+    assert "| object table (matched proposals) |" in text.split("## Perception")[1].split("## Accuracy")[0]
 
 
 def test_the_sweep_check_names_the_noise_levels_where_ours_does_not_win():

@@ -88,7 +88,8 @@ def _evidence_markdown(figures: dict) -> str:
     if figures.get("object_tables"):
         lines += ["", "| object table (matched proposals) | rows | accuracy | ECE | NLL |", "|---|---|---|---|---|"]
         for name, row in figures["object_tables"].items():
-            lines.append(f"| {name} | {row['rows']} | {row['accuracy']} | {row['ece']} | {row['nll']} |")
+            cells = ("-" if row[key] is None else str(row[key]) for key in ("accuracy", "ece", "nll"))
+            lines.append(f"| {name} | {row['rows']} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 

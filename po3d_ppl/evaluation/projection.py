@@ -159,9 +159,11 @@ def style_figures(tables: torch.Tensor, truth: torch.Tensor, recoloured: float, 
 
 def object_figures(tables: torch.Tensor, truth: torch.Tensor, scale: float = 1.0) -> dict:
     """ECE of the top value (15 bins), NLL of the true value and accuracy of an object table's rows times
-    ``scale`` under the scene model's uniform prior."""
+    ``scale`` under the scene model's uniform prior (None each when there are no rows)."""
     from po3d_ppl.perception.calibration import top_label_ece
 
+    if truth.numel() == 0:
+        return {"rows": 0, "ece": None, "nll": None, "accuracy": None}
     log_post = torch.log_softmax(tables.double() * scale, dim=-1)
     return {"rows": int(truth.numel()), "ece": round(top_label_ece(log_post, truth), 4),
             "nll": round(float(-log_post.gather(1, truth[:, None]).mean()), 4),
@@ -270,12 +272,7 @@ def measure(calibration: ProjectionCalibration | None, entries: dict[str, tuple[
     """Each table's figures as they are and (with ``calibration``) after it, on entries of another split."""
     out = {}
     for name, (x, y) in entries.items():
-        if name in OBJECT_TABLES and y.numel():
-            scale = None if calibration is None else calibration.object_scales.get(name)
-            out[name] = {"raw": object_figures(x, y),
-                         **({"calibrated": object_figures(x, y, scale)} if scale is not None else {})}
-            continue
-        if y.numel() == 0 or name == STYLE_TABLE:
+        if y.numel() == 0 or name not in TABLES:
             continue
         row = {"raw": table_figures(x, y)}
         if calibration is not None and name in calibration.platt:
