@@ -204,7 +204,7 @@ def test_part_look_scale_fit_sharpens_an_under_confident_table(scene):
 
 def test_object_table_scales_are_applied_saved_and_validated(scene, tmp_path):
     from po3d_ppl.model_store import write_entry
-    from po3d_ppl.perception.projection_calibration import MODEL_NAME
+    from po3d_ppl.perception.projection_calibration import FORMAT, MODEL_NAME
 
     evidence = simulated_evidence(scene, noise=0.1, seed=1)
     out = ProjectionCalibration(object_scales={"subtype_loglik": 0.5, "size_loglik": 0.2}).apply(evidence)
@@ -219,6 +219,13 @@ def test_object_table_scales_are_applied_saved_and_validated(scene, tmp_path):
     write_entry(MODEL_NAME, [calibration.save(tmp_path)], tmp_path, command="test")
     assert load_projection_calibration(tmp_path) == calibration
     assert calibration.to_dict()["subtype_loglik"] == [0.52]
+    from safetensors.torch import save_file
+
+    save_file({"pose_loglik": torch.tensor([0.5], dtype=torch.float64)}, str(tmp_path / WEIGHTS),
+              metadata={"format": FORMAT})
+    write_entry(MODEL_NAME, [tmp_path / WEIGHTS], tmp_path, command="test")
+    with pytest.raises(ModelFileError, match="unknown entries"):
+        load_projection_calibration(tmp_path)
 
 
 def test_object_table_scale_fit_softens_an_over_confident_table(scene):

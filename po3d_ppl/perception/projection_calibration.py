@@ -214,7 +214,8 @@ def load_projection_calibration(directory: Path | str | None = None) -> Projecti
             raise ValueError(f"unknown entries {sorted(unknown)}")
         return ProjectionCalibration({name: tuple(float(x) for x in v[:4]) for name, v in binary.items()},
                                      {name: float(v[4]) for name, v in binary.items()},
-                                     None if style is None else float(style[0]), None if edge is None else float(edge[0]),
+                                     None if style is None else float(style[0]),
+                                     None if edge is None else float(edge[0]),
                                      {name: float(tensors[name][0]) for name in OBJECT_TABLES if name in tensors})
     except (ValueError, IndexError, TypeError, InputError) as exc:
         raise ModelFileError(f"cannot load the projection calibration from {path} ({exc}); {RETRAIN}") from None
