@@ -188,24 +188,17 @@ def evidence_figures(data: Path, split: str, limit: int | None, store, console, 
     (each read as its posterior under the priors the image pipeline uses) and of the object tables. ``backend``: a
     loaded ``ImageBackend`` to reuse. ``gallery``: also draw the ``gallery_images`` images with the most detection
     failures there (:mod:`po3d_ppl.evaluation.failure_gallery`)."""
-    import torch
-
     from po3d_ppl.evaluation.backends import ImageBackend
     from po3d_ppl.evaluation.evidence_scores import EvidenceCounts
     from po3d_ppl.evaluation.objects import EvidenceAsProposals, score_image, summarise
-    from po3d_ppl.evaluation.projection import as_tensors, measure, object_entries, object_figures
+    from po3d_ppl.evaluation.projection import as_tensors, measure
     from po3d_ppl.perception.priors import load_priors
-    from po3d_ppl.perception.projection_calibration import OBJECT_TABLES
 
     backend = backend or ImageBackend()
     counts, outcomes = EvidenceCounts(priors=backend.scene_priors(load_priors())), []
-    object_rows: dict[str, tuple[list, list]] = {name: ([], []) for name in OBJECT_TABLES}
     for evidence, scene in _cached_evidence(data, split, limit, store, backend, console, "evidence"):
         counts.add(evidence, scene)
         outcomes.append(score_image(EvidenceAsProposals.of(evidence), scene, scene.image_filename, 0.0))
-        for name, (rows, truths) in object_entries(evidence, scene).items():
-            object_rows[name][0].extend(rows)
-            object_rows[name][1].extend(truths)
     if gallery is not None:
         from po3d_ppl.evaluation.failure_gallery import write_gallery
 
@@ -214,8 +207,7 @@ def evidence_figures(data: Path, split: str, limit: int | None, store, console, 
         console.print(f"detection failures drawn: {index}", markup=False, highlight=False)
     return {"evidence": counts.figures(), "objects": summarise(outcomes),
             "projected_tables": measure(None, as_tensors(counts.entries)),
-            "object_tables": {name: object_figures(torch.tensor(rows, dtype=torch.float64), torch.tensor(truths))
-                              for name, (rows, truths) in object_rows.items()},
+            "object_tables": counts.object_tables(),
             "cache": {"hits": store.hits, "misses": store.misses}}
 
 

@@ -26,7 +26,7 @@ import torch
 from po3d_ppl import ontology
 from po3d_ppl.evaluation.objects import match_boxes
 from po3d_ppl.evidence import ScenePriors
-from po3d_ppl.perception.projection_calibration import TABLE_PRIOR
+from po3d_ppl.perception.projection_calibration import OBJECT_TABLES, TABLE_PRIOR
 
 
 def table_prior_logodds(priors: ScenePriors, table: str) -> float:
@@ -53,9 +53,13 @@ class EvidenceCounts:
     counts: Counter = field(default_factory=Counter)
     entries: dict[str, tuple[list[float], list[bool]]] = field(default_factory=dict)
     priors: ScenePriors = field(default_factory=ScenePriors)
+    #: Per object table (``OBJECT_TABLES``): the matched proposals' rows and their true values
+    #: (:func:`po3d_ppl.evaluation.projection.object_entries`), which :meth:`object_tables` scores.
+    object_rows: dict[str, tuple[list[list[float]], list[int]]] = field(
+        default_factory=lambda: {name: ([], []) for name in OBJECT_TABLES})
 
     def add(self, evidence, scene, min_iou: float = 0.5) -> None:
-        from po3d_ppl.evaluation.projection import table_entries
+        from po3d_ppl.evaluation.projection import object_entries, table_entries
         from po3d_ppl.evidence import STATE_COLOR, STATE_MATERIAL, style_index
         from po3d_ppl.perception.simulated import part_visible
 
@@ -90,6 +94,9 @@ class EvidenceCounts:
                     state = said + 1  # the part-state axis puts "hidden" first
                     c["part_color_ok"] += int(STATE_COLOR[state]) == ontology.COLORS.index(style.color)
                     c["part_material_ok"] += int(STATE_MATERIAL[state]) == ontology.MATERIALS.index(style.material)
+        for name, (rows, truths) in object_entries(evidence, scene, min_iou).items():
+            self.object_rows[name][0].extend(rows)
+            self.object_rows[name][1].extend(truths)
         for name, (values, truths) in table_entries(evidence, scene, min_iou).items():
             prior = table_prior_logodds(self.priors, name)
             values = [v + prior for v in values]  # the entry's posterior log-odds
@@ -105,6 +112,13 @@ class EvidenceCounts:
                     c[f"{prefix}_fn"] += truth and not said
                 elif name == "part_visible_logodds" and truth:
                     c["part_visible_ok"] += said
+
+    def object_tables(self) -> dict[str, dict]:
+        """Accuracy, ECE and NLL of each object table over the rows added (None each for a table without rows)."""
+        from po3d_ppl.evaluation.projection import object_figures
+
+        return {name: object_figures(torch.tensor(rows, dtype=torch.float64), torch.tensor(truths, dtype=torch.long))
+                for name, (rows, truths) in self.object_rows.items()}
 
     def figures(self) -> dict[str, float | int | None]:
         c = self.counts

@@ -54,8 +54,9 @@ from po3d_ppl.evidence import SceneEvidence, ScenePriors
 
 MODEL_NAME = "projection_calibration"
 WEIGHTS = "projection_calibration.safetensors"
-#: 3: ``[scale, bias, floor_shift, ceiling_shift, base_rate]`` per table and the ``edge`` (2 had no edge states;
-#: 1 no base rate: posteriors, which the scene model's prior counted twice).
+#: 3: ``[scale, bias, floor_shift, ceiling_shift, base_rate]`` per table and the ``edge``, and optionally the
+#: part-look scale and one scale per object table (files without them load as before; 2 had no edge states; 1 no
+#: base rate: posteriors, which the scene model's prior counted twice).
 FORMAT = "3"
 #: Entries within this of an edge's log-odds sit on it (the tables are stored in float32).
 EDGE_TOLERANCE = 1e-4
