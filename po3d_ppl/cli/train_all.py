@@ -151,7 +151,7 @@ FULL = Scale(
     centres={"epochs": 12, "batch_size": 16, "lr": 0.002, "splits": "train,val,test"},
     # the shipped calibration used a 60-scene build of seed 712: the first 60 images of the 120-scene one
     calibration={"limit": 60},
-    attributes={"epochs": 18, "batch_size": 32, "lr": 0.003, "part_fraction": 0.5, "part_shift": 0.0,
+    attributes={"epochs": 26, "batch_size": 32, "lr": 0.003, "part_fraction": 0.5, "part_shift": 0.0,
                 "part_masks": "jittered", "splits": "train,test", "val_split": "val"},
     viewpoint={"epochs": 30, "batch_size": 32, "lr": 0.003, "splits": "train,test", "val_split": "val"},
     projection={"split": "all"},
