@@ -203,6 +203,8 @@ def test_part_look_scale_fit_sharpens_an_under_confident_table(scene):
 
 
 def test_object_table_scales_are_applied_saved_and_validated(scene, tmp_path):
+    from safetensors.torch import save_file
+
     from po3d_ppl.model_store import write_entry
     from po3d_ppl.perception.projection_calibration import FORMAT, MODEL_NAME
 
@@ -219,8 +221,6 @@ def test_object_table_scales_are_applied_saved_and_validated(scene, tmp_path):
     write_entry(MODEL_NAME, [calibration.save(tmp_path)], tmp_path, command="test")
     assert load_projection_calibration(tmp_path) == calibration
     assert calibration.to_dict()["subtype_loglik"] == [0.52]
-    from safetensors.torch import save_file
-
     save_file({"pose_loglik": torch.tensor([0.5], dtype=torch.float64)}, str(tmp_path / WEIGHTS),
               metadata={"format": FORMAT})
     write_entry(MODEL_NAME, [tmp_path / WEIGHTS], tmp_path, command="test")
