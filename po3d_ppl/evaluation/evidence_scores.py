@@ -20,11 +20,9 @@ import math
 from collections import Counter
 from dataclasses import dataclass, field
 
-import numpy as np
 import torch
 
 from po3d_ppl import ontology
-from po3d_ppl.evaluation.objects import match_boxes
 from po3d_ppl.evidence import ScenePriors
 from po3d_ppl.perception.projection_calibration import OBJECT_TABLES, TABLE_PRIOR
 
@@ -59,23 +57,17 @@ class EvidenceCounts:
         default_factory=lambda: {name: ([], []) for name in OBJECT_TABLES})
 
     def add(self, evidence, scene, min_iou: float = 0.5) -> None:
-        from po3d_ppl.evaluation.projection import object_entries, table_entries
+        from po3d_ppl.evaluation.projection import matched_proposals, object_entries, table_entries
         from po3d_ppl.evidence import STATE_COLOR, STATE_MATERIAL, style_index
         from po3d_ppl.perception.simulated import part_visible
 
         c = self.counts
         part_states = part_state_log_posterior(evidence, self.priors) if evidence.num_objects else None
-        objs = scene.objects
-        boxes = np.array([o.annotation.bbox for o in objs], dtype=np.float64).reshape(-1, 4)
-        if evidence.boxes is None:
-            raise ValueError("the evidence carries no boxes to match objects by")
-        pairs = match_boxes(evidence.boxes.numpy(), boxes, min_iou)
-        c["objects"] += len(objs)
-        c["matched"] += len(pairs)
+        matched = matched_proposals(evidence, scene, min_iou)[0]
+        c["objects"] += len(scene.objects)
+        c["matched"] += len(matched)
         c["proposals"] += evidence.num_objects
-        for i, j in pairs:
-            o = objs[j]
-            s = ontology.SUBTYPES.index(o.subtype)
+        for i, o, _, s in matched:
             c["subtype_ok"] += int(evidence.subtype_loglik[i].argmax()) == s
             c["color_ok"] += int(evidence.color_loglik[i].argmax()) == ontology.COLORS.index(o.color)
             c["material_ok"] += int(evidence.material_loglik[i].argmax()) == ontology.MATERIALS.index(o.material)

@@ -34,6 +34,8 @@ from po3d_ppl.perception.projection_calibration import (
 def matched_proposals(evidence, scene, min_iou: float = 0.5):
     """(proposal, object, subtype index) of every proposal matched to an object (box IoU >= ``min_iou``), and the
     proposal of each matched object."""
+    if evidence.boxes is None:
+        raise ValueError("the evidence carries no boxes to match objects by")
     objs = scene.objects
     boxes = np.array([o.annotation.bbox for o in objs], dtype=np.float64).reshape(-1, 4)
     pairs = match_boxes(evidence.boxes.numpy(), boxes, min_iou)
