@@ -22,10 +22,12 @@ from po3d_ppl.perception.attributes import (
     STYLE_MATERIAL,
     WEIGHTS,
     AttributeConfig,
+    AttributeEnsemble,
     AttributeNet,
     crop_labels,
     label_boxes,
     load_attribute_net,
+    log_mean_exp,
     mask_boxes,
     save_attribute_net,
     square_windows,
@@ -214,6 +216,50 @@ def test_save_load_round_trip_and_checksums(tmp_path, torch_one_thread):
         load_attribute_net(tmp_path)
 
 
+def test_an_ensemble_mixes_its_members_and_round_trips(rendered, tmp_path, torch_one_thread):
+    r = rendered[0]
+    masks, parts = scene_masks(r.scene, 240, 320)
+    pixels = _pixels(r)
+    part_masks = torch.stack([m for _, _, m in parts[:5]])
+    owner = torch.tensor([i for i, _, _ in parts[:5]])
+    members = []
+    for seed in (0, 1):
+        torch.manual_seed(seed)
+        members.append(AttributeNet(TINY).eval())
+    members[1].part_temperature.fill_(2.0)
+    ensemble = AttributeEnsemble(members).eval()
+    # objects: the equal mixture of the members' calibrated probabilities
+    read = ensemble.object_loglik(pixels, masks)
+    alone = [m.object_loglik(pixels, masks) for m in members]
+    for head in OBJECT_HEADS:
+        assert torch.allclose(read[head], log_mean_exp([a[head] for a in alone]), atol=1e-5)
+        assert not torch.allclose(read[head], alone[0][head], atol=1e-3)
+    parts_read = ensemble.part_loglik(pixels, part_masks, masks, owner)
+    for v in parts_read.values():
+        assert torch.allclose(v.logsumexp(-1), torch.zeros(5), atol=1e-4)
+    # a network beside its own copy reads exactly as it does alone (the members are given the ensemble's objects)
+    copy = AttributeNet(TINY).eval()
+    copy.load_state_dict(members[0].state_dict())
+    twins = AttributeEnsemble([members[0], copy])
+    single = members[0].part_loglik(pixels, part_masks, masks, owner)
+    for head, v in twins.part_loglik(pixels, part_masks, masks, owner).items():
+        assert torch.allclose(v, single[head], atol=1e-5), head
+    # one file holds every member; loading rebuilds the ensemble and its readings
+    save_attribute_net(ensemble, tmp_path, command="po3d train attributes --members 2 --test", data_seed=1)
+    loaded = load_attribute_net(tmp_path)
+    assert isinstance(loaded, AttributeEnsemble) and len(loaded.members) == 2
+    assert set(loaded.temperatures()) == {f"member{k}.{name}" for k in (0, 1) for name in members[0].temperatures()}
+    again = loaded.part_loglik(pixels, part_masks, masks, owner)
+    for head, v in parts_read.items():
+        assert torch.allclose(again[head], v, atol=1e-6), head
+    with pytest.raises(InputError, match="at least two"):
+        AttributeEnsemble(members[:1])
+    with pytest.raises(InputError, match="AttributeConfig"):
+        AttributeEnsemble([members[0], AttributeNet(AttributeConfig(part_size=16, object_size=16,
+                                                                    object_widths=(4, 8, 8, 8),
+                                                                    part_widths=(4, 4, 8, 8), hidden=16))])
+
+
 def test_cli_trains_and_evaluates(tmp_path, torch_one_thread):
     import typer
     from typer.testing import CliRunner
@@ -266,6 +312,19 @@ def test_cli_trains_on_several_datasets(tmp_path, torch_one_thread):
     entry = json.loads((out / "manifest.json").read_text())[MODEL_NAME]
     assert entry["data_seed"] == [5, 6] and entry["metrics"]["train_objects"] == 12
     assert f"--data {first} --data {second}" in entry["command"] and len(entry["data_commands"]) == 2
+    assert isinstance(load_attribute_net(out), AttributeNet)
+    result = CliRunner().invoke(app, ["train", "attributes", "--data", str(first), "--out", str(out), "--max-steps",
+                                      "1", "--batch-size", "4", "--splits", "train,test", "--val-split", "val",
+                                      "--members", "2", "--eval-data", str(second),
+                                      "--cache", str(tmp_path / "cache")])
+    assert result.exit_code == 0, result.output
+    entry = json.loads((out / "manifest.json").read_text())[MODEL_NAME]
+    assert "--members 2" in entry["command"] and [m["seed"] for m in entry["metrics"]["members"]] == [0, 1]
+    assert "object.subtype" in entry["metrics"]["eval_seed6"]["objects"]
+    ensemble = load_attribute_net(out)
+    assert isinstance(ensemble, AttributeEnsemble) and len(ensemble.members) == 2
+    first, second = (m.parts.heads["color"].weight for m in ensemble.members)
+    assert not torch.equal(first, second)  # seeds --seed and --seed + 1
 
 
 def test_the_shipped_weights_load_and_beat_chance(torch_one_thread):

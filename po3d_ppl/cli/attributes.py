@@ -79,6 +79,9 @@ def train_attributes_command(
         "--part-masks", help="Cut part crops around the true visible masks ('truth') or around the parts of each "
                              "scene re-rendered at jittered poses, as the parser projects them ('jittered').")
                           ] = "truth",
+    members: Annotated[int, typer.Option(
+        "--members", min=1, help="Networks to train (seeds --seed, --seed + 1, ...) and ship as one ensemble; they "
+                                 "share the crops of --seed's jittered projections.")] = 1,
     max_steps: Annotated[int | None, typer.Option("--max-steps", min=1, help="Stop after this many steps.")] = None,
     splits: Annotated[str, typer.Option("--splits", help="Comma-separated splits of each --data to train on.")
                       ] = "train",
@@ -101,7 +104,7 @@ def train_attributes_command(
     from po3d_ppl.cli._common import check_seed
     from po3d_ppl.errors import InputError
     from po3d_ppl.model_store import models_dir
-    from po3d_ppl.perception.attributes import save_attribute_net
+    from po3d_ppl.perception.attributes import AttributeEnsemble, save_attribute_net
     from po3d_ppl.perception.train_attributes import (
         AttributeData,
         ProjectionJitter,
@@ -126,20 +129,30 @@ def train_attributes_command(
     console.print(f"training on {train.num_objects} objects and {train.num_parts} parts "
                   f"({float(train.part_label('recoloured').float().mean()):.3f} recoloured); "
                   f"calibrating on {val.num_objects} objects, {val.num_parts} parts", highlight=False)
-    with Progress(TextColumn("[bold]train attributes"), BarColumn(), MofNCompleteColumn(),
-                  TextColumn("epoch {task.fields[epoch]:.1f} loss {task.fields[loss]:.3f}"), TimeRemainingColumn(),
-                  console=console) as bar:
-        task = bar.add_task("train", total=None, epoch=0.0, loss=float("nan"))
-        trained = train_attributes(train, config, device=device,
-                                   progress=lambda step, total, info: bar.update(task, completed=step, total=total,
-                                                                                 epoch=info["epoch"],
-                                                                                 loss=info["loss"]))
-    net = trained.net
-    calibration = calibrate(net, val)
+    trained_members, member_metrics = [], []
+    for k in range(members):
+        member_config = dataclasses.replace(config, seed=seed + k)
+        label = "train attributes" if members == 1 else f"train attributes {k + 1}/{members}"
+        with Progress(TextColumn(f"[bold]{label}"), BarColumn(), MofNCompleteColumn(),
+                      TextColumn("epoch {task.fields[epoch]:.1f} loss {task.fields[loss]:.3f}"), TimeRemainingColumn(),
+                      console=console) as bar:
+            task = bar.add_task("train", total=None, epoch=0.0, loss=float("nan"))
+            trained = train_attributes(train, member_config, device=device,
+                                       progress=lambda step, total, info: bar.update(
+                                           task, completed=step, total=total, epoch=info["epoch"], loss=info["loss"]))
+        calibration = calibrate(trained.net, val)
+        trained_members.append(trained)
+        member_metrics.append({"seed": seed + k, "train_seconds": round(trained.seconds, 1),
+                               "step_seconds": round(trained.step_seconds, 4), "steps": trained.steps,
+                               "history": trained.history, "calibration": calibration})
+    net = trained_members[0].net if members == 1 else AttributeEnsemble([t.net for t in trained_members])
     metrics: dict = {"train_objects": train.num_objects, "train_parts": train.num_parts,
-                     "train_seconds": round(trained.seconds, 1), "step_seconds": round(trained.step_seconds, 4),
-                     "steps": trained.steps, "threads": threads, "device": device,
-                     "parameters": net.num_parameters(), "history": trained.history, "calibration": calibration}
+                     "train_seconds": round(sum(t.seconds for t in trained_members), 1), "threads": threads,
+                     "device": device, "parameters": net.num_parameters()}
+    if members == 1:
+        metrics |= {k: v for k, v in member_metrics[0].items() if k not in ("seed", "train_seconds")}
+    else:
+        metrics["members"] = member_metrics
     data_manifests = [dataset_manifest(d) for d in data]
     seeds = [m.get("seed") for m in data_manifests]
     if eval_data is not None:
@@ -155,6 +168,7 @@ def train_attributes_command(
              "--epochs", str(epochs),
              "--batch-size", str(batch_size), "--lr", str(lr), "--part-fraction", str(part_fraction),
              "--part-shift", str(part_shift), "--part-masks", part_masks,
+             *(["--members", str(members)] if members > 1 else []),
              "--splits", ",".join(split_list), "--val-split", val_split, "--threads", str(threads)]
     if max_steps is not None:
         words += ["--max-steps", str(max_steps)]
@@ -168,9 +182,8 @@ def train_attributes_command(
                               data_seed=seeds[0] if len(seeds) == 1 else seeds, train_config={**config.to_dict(),
                                             "part_masks": dataclasses.asdict(jitter) if jitter else "truth"},
                               metrics=metrics)
-    console.print(f"wrote {path} ({path.stat().st_size / 1e6:.2f} MB) after {trained.seconds:.0f} s of training "
-                  f"({trained.step_seconds:.3f} s a step); temperatures {calibration['temperatures']}",
-                  markup=False, highlight=False)
+    console.print(f"wrote {path} ({path.stat().st_size / 1e6:.2f} MB) after {metrics['train_seconds']:.0f} s of "
+                  f"training; temperatures {net.temperatures()}", markup=False, highlight=False)
 
 
 def eval_attributes_command(

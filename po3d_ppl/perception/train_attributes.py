@@ -53,6 +53,7 @@ from po3d_ppl.perception.attributes import (
     PART_HEADS,
     AttributeConfig,
     AttributeNet,
+    AttributeReader,
     crop_values,
     mask_boxes,
     mirror_object_geometry,
@@ -616,7 +617,7 @@ class _Tally:
                 {f"n_{g}": t for g, (_, t) in groups.items() if g == "all"} for m, groups in self.counts.items()}
 
 
-def evaluate_dataset(net: AttributeNet, data: Path | str, splits: Sequence[str] = ("train", "val", "test"),
+def evaluate_dataset(net: AttributeReader, data: Path | str, splits: Sequence[str] = ("train", "val", "test"),
                      limit: int | None = None, progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
     """Accuracy of every head on the images of ``splits`` (all of them by default) through the public API, with
     the ground-truth visible masks as the parser's masks: objects per category; parts over visible parts with
@@ -629,7 +630,7 @@ def evaluate_dataset(net: AttributeNet, data: Path | str, splits: Sequence[str] 
     indices = split_indices(root, splits)[:limit]
     scenes = load_scenes(root / "scenes.json")
     tally = _Tally()
-    collected: dict[str, dict[str, list[torch.Tensor]]] = {"raw": {}, "label": {}}
+    collected: dict[str, dict[str, list[torch.Tensor]]] = {"raw": {}, "calibrated": {}, "label": {}}
     start = time.perf_counter()
     for n, i in enumerate(indices):
         scene = scenes[i]
@@ -638,13 +639,13 @@ def evaluate_dataset(net: AttributeNet, data: Path | str, splits: Sequence[str] 
         masks, parts = scene_masks(scene, h, w)
         cats = [ontology.CATEGORY_OF[o.subtype] for o in scene.objects]
         raw = net.object_loglik(image, masks, calibrated=False)
-        logp = net.calibrate(raw, "object")
+        logp = net.object_loglik(image, masks)  # an ensemble calibrates each member before mixing them
         for k, head in enumerate(OBJECT_HEADS):
             truth = torch.tensor([[ontology.SUBTYPES.index(o.subtype), ontology.COLORS.index(o.color),
                                    ontology.MATERIALS.index(o.material), ontology.SIZES.index(o.size)][k]
                                   for o in scene.objects])
             correct = logp[head].argmax(-1).cpu() == truth
-            _collect(collected, f"object.{head}", raw[head], truth)
+            _collect(collected, f"object.{head}", raw[head], logp[head], truth)
             tally.add(f"object.{head}", "all", correct)
             for c in set(cats):
                 tally.add(f"object.{head}", c, correct[torch.tensor([x == c for x in cats])])
@@ -652,25 +653,23 @@ def evaluate_dataset(net: AttributeNet, data: Path | str, splits: Sequence[str] 
             part_masks = torch.stack([p[2] for p in parts])
             owner = torch.tensor([p[0] for p in parts])
             praw = net.part_loglik(image, part_masks, masks, owner, calibrated=False)
-            plogp = net.calibrate(praw, "part")
+            plogp = net.part_loglik(image, part_masks, masks, owner)
             _tally_parts(tally, collected, scene, parts, praw, plogp)
         if progress is not None:
             progress(n + 1, len(indices))
     ece = {}
     for name, raws in collected["raw"].items():
-        level, head = name.split(".")
-        lp = torch.cat(raws)
         y = torch.cat(collected["label"][name])
-        cal = net.calibrate({head: lp.to(net.device)}, level)
-        ece[name] = {"before": round(top_label_ece(lp, y), 4),
-                     "after": round(top_label_ece(cal[head].cpu(), y), 4)}
+        ece[name] = {"before": round(top_label_ece(torch.cat(raws), y), 4),
+                     "after": round(top_label_ece(torch.cat(collected["calibrated"][name]), y), 4)}
     return {"images": len(indices), "objects": tally.report(), "ece": ece, "temperatures": net.temperatures(),
             "masks": "ground-truth visible masks (object and part) stand in for the parser's",
             "measured_part_pixels": MEASURE_PART_PIXELS, "seconds": round(time.perf_counter() - start, 1)}
 
 
-def _collect(collected, name: str, raw: torch.Tensor, truth: torch.Tensor) -> None:
+def _collect(collected, name: str, raw: torch.Tensor, calibrated: torch.Tensor, truth: torch.Tensor) -> None:
     collected["raw"].setdefault(name, []).append(raw.cpu())
+    collected["calibrated"].setdefault(name, []).append(calibrated.cpu())
     collected["label"].setdefault(name, []).append(truth)
 
 
@@ -701,4 +700,5 @@ def _tally_parts(tally: _Tally, collected, scene, parts, praw, plogp) -> None:
             for c in set(cats):
                 tally.add(name + suffix, c, correct[sel & torch.tensor([x == c for x in cats])])
     for head, truth in (("recoloured", look), ("color", color), ("material", material)):
-        _collect(collected, f"part.{head}", praw[head][measured.to(praw[head].device)], truth[measured])
+        keep = measured.to(praw[head].device)
+        _collect(collected, f"part.{head}", praw[head][keep], plogp[head][keep], truth[measured])
