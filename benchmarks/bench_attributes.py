@@ -1,6 +1,6 @@
 """Speed of the attribute network's inference API on 640x480 renders (one torch thread by default).
 
-    python benchmarks/bench_attributes.py [--scenes 5] [--repeats 3] [--hypotheses 5] [--threads 1]
+    python benchmarks/bench_attributes.py [--scenes 5] [--repeats 3] [--hypotheses 5] [--threads 1] [--models DIR]
 
 Per image: ``object_loglik`` on every object's ground-truth mask, ``part_loglik`` on every visible part, and
 ``part_style_table`` as the scene parser would call it, with each object's ground-truth part-id map repeated under
@@ -33,6 +33,8 @@ def main() -> None:
     parser.add_argument("--hypotheses", type=int, default=5)
     parser.add_argument("--threads", type=int, default=1)
     parser.add_argument("--seed", type=int, default=100)
+    parser.add_argument("--models", default=None, help="model directory (default: the shipped models/); an "
+                                                         "ensemble's members each read every crop")
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
 
@@ -41,7 +43,7 @@ def main() -> None:
     from po3d_ppl.perception.train_attributes import scene_masks
     from po3d_ppl.world import generate_scene, rle
 
-    net = load_attribute_net()
+    net = load_attribute_net(args.models)
     rows: dict[str, list[float]] = {"object_loglik": [], "part_loglik": [], "part_style_table": []}
     counts: dict[str, list[int]] = {"objects": [], "parts": [], "table_rows": []}
     for k in range(args.scenes):
