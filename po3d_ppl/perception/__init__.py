@@ -49,7 +49,8 @@ _LAZY = {
     "parse_scene": "scene_parser", "ImageParser": "scene_parser", "ParsedScene": "scene_parser",
     "SceneParserConfig": "scene_parser", "BackgroundModel": "background", "load_background": "background",
     "TableCalibration": "calibration", "load_calibration": "calibration",
-    "AttributeNet": "attributes", "load_attribute_net": "attributes",
+    "AttributeNet": "attributes", "AttributeEnsemble": "attributes", "AttributeReader": "attributes",
+    "load_attribute_net": "attributes",
     "ViewpointNet": "viewpoint", "load_viewpoint_net": "viewpoint", "combine_pose": "viewpoint",
 }
 

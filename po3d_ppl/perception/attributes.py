@@ -27,6 +27,11 @@ are already normalised likelihoods. :meth:`AttributeNet.part_style_table` fills 
 table from per-(proposal, subtype hypothesis) part-id maps; slots without pixels stay 0 (uninformative; the
 visibility table says they are hidden).
 
+**Ensembles.** :class:`AttributeEnsemble` reads the same crops with several networks trained alike from different
+seeds and mixes their calibrated probabilities; it answers the same calls (:class:`AttributeReader`), and one
+weights file holds every member (its ``members`` metadata says how many). The shipped model is a two-member
+ensemble (``po3d train attributes --members 2``).
+
 Code runs on any device (inputs are moved to the module's). Loading goes through :mod:`po3d_ppl.model_store`
 (sha256 and size against ``models/manifest.json``).
 """

@@ -56,7 +56,7 @@ from po3d_ppl.perception.simulated import VISIBLE_PART_PIXELS
 from po3d_ppl.world.scene import Camera
 
 if TYPE_CHECKING:
-    from po3d_ppl.perception.attributes import AttributeNet
+    from po3d_ppl.perception.attributes import AttributeReader
     from po3d_ppl.perception.projection_calibration import ProjectionCalibration
     from po3d_ppl.perception.viewpoint import ViewpointNet
 
@@ -262,7 +262,7 @@ def _subtype_weights(subtype_loglik: torch.Tensor, config: SceneParserConfig) ->
     return out
 
 
-def parse_scene(image, *, object_model=None, attributes: AttributeNet | None = None,
+def parse_scene(image, *, object_model=None, attributes: AttributeReader | None = None,
                 viewpoint: ViewpointNet | None = None, projection_calibration: ProjectionCalibration | None = None,
                 config: SceneParserConfig | None = None, parser_config=None, object_calibration=None,
                 background=None, centres=None) -> ParsedScene:
@@ -396,7 +396,7 @@ def post_filter(existence: torch.Tensor, category_logp: torch.Tensor, attribute_
     return existence + (penalty if max_nats is None else penalty.clamp(min=-max_nats))
 
 
-def read_scene(img: ImageInput, proposals, attributes: AttributeNet | None, viewpoint: ViewpointNet | None,
+def read_scene(img: ImageInput, proposals, attributes: AttributeReader | None, viewpoint: ViewpointNet | None,
                 projection_calibration: ProjectionCalibration | None, config: SceneParserConfig) -> ParsedScene:
     """Every table of the evidence from the object parser's proposals: attributes, viewpoint, camera height,
     alignment, silhouette subtypes, and parts and occlusion by projection."""
@@ -607,7 +607,7 @@ def silhouette_subtype_loglik(proposals, xy: list[list[float]], yaw_offsets: lis
     return terms
 
 
-def _mixed_styles(attributes: AttributeNet, img: ImageInput, masks: torch.Tensor,
+def _mixed_styles(attributes: AttributeReader, img: ImageInput, masks: torch.Tensor,
                   part_maps: list[dict[tuple[int, int], torch.Tensor]], weights: torch.Tensor,
                   kept: int | None = None) -> torch.Tensor:
     """The part-style table as a mixture over the ``kept`` most likely pose hypotheses (None: all; ``part_maps``
@@ -633,7 +633,7 @@ def _mixed_styles(attributes: AttributeNet, img: ImageInput, masks: torch.Tensor
 
 def _project(proposals, xy: list[list[float]], yaw_offsets: list[float], subtype_ll: torch.Tensor,
              size_ll: torch.Tensor, pose_ll: torch.Tensor, camera: Camera, config: SceneParserConfig,
-             attributes: AttributeNet | None, img: ImageInput):
+             attributes: AttributeReader | None, img: ImageInput):
     """Occlusion and part tables by projection, and positions (box centres) and depths of the best hypotheses."""
     n = len(proposals)
     floor = config.projection_floor
@@ -716,7 +716,7 @@ class ImageParser:
     """The render-and-compare back-end: ``ImageParser.load().evidence(image) -> SceneEvidence``."""
 
     object_model: object = None
-    attributes: AttributeNet | None = None
+    attributes: AttributeReader | None = None
     config: SceneParserConfig = field(default_factory=SceneParserConfig)
     viewpoint: ViewpointNet | None = None
     projection_calibration: ProjectionCalibration | None = None
