@@ -95,7 +95,8 @@ def train_attributes_command(
     threads: Annotated[int, typer.Option(
         "--threads", min=1, help="torch CPU threads (one is fastest on a busy 2-core machine).")] = 1,
 ) -> None:
-    """Train the attribute network on ground-truth-mask crops, fit its temperatures on --val-split, and write
+    """Train the attribute network (or --members networks, one after another, read as one ensemble) on crops around
+    true or jittered masks, fit each network's temperatures on --val-split, and write
     models/attributes.safetensors with its manifest entry."""
     import torch
     from rich.console import Console
