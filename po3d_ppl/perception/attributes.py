@@ -382,8 +382,8 @@ def _head_sizes(heads: Mapping[str, tuple[str, ...]]) -> dict[str, int]:
 
 
 class AttributeReader(abc.ABC):
-    """The public inference of :class:`AttributeNet` and of :class:`AttributeEnsemble`: both read the image the same
-    way and differ only in how ``_objects`` and ``_parts`` turn crops into log-probabilities."""
+    """The public inference of :class:`AttributeNet` and of :class:`AttributeEnsemble`: both cut the same crops
+    and differ only in how :meth:`read_objects` and :meth:`read_parts` turn them into log-probabilities."""
 
     config: AttributeConfig
 
@@ -397,14 +397,26 @@ class AttributeReader(abc.ABC):
         """Every fitted temperature by name."""
 
     @abc.abstractmethod
-    def _objects(self, pixels: torch.Tensor, masks: torch.Tensor, calibrated: bool
-                 ) -> tuple[dict[str, torch.Tensor], ObjectInputs]:
-        """Object log-probabilities per head, and the crops they were read from."""
+    def read_objects(self, inputs: ObjectInputs, calibrated: bool) -> dict[str, torch.Tensor]:
+        """Object log-probabilities per head from prepared crops (:func:`object_inputs`)."""
 
     @abc.abstractmethod
+    def read_parts(self, crops: torch.Tensor, geometry: torch.Tensor, object_logp: Mapping[str, torch.Tensor],
+                   owner: torch.Tensor, calibrated: bool) -> dict[str, torch.Tensor]:
+        """Part log-probabilities per head and ``style`` from prepared crops (:func:`part_inputs`), given the
+        objects' reading ``object_logp`` (part m belongs to object ``owner[m]``)."""
+
+    def _objects(self, pixels: torch.Tensor, masks: torch.Tensor, calibrated: bool
+                 ) -> tuple[dict[str, torch.Tensor], ObjectInputs]:
+        inputs = object_inputs(pixels, masks, self.config)
+        return self.read_objects(inputs, calibrated), inputs
+
     def _parts(self, pixels, planes, plane_index, values, boxes, counts, object_masks, owner, calibrated,
                objects: tuple[dict[str, torch.Tensor], ObjectInputs] | None = None) -> dict[str, torch.Tensor]:
-        """Part log-probabilities per head and ``style`` (given the objects' reading when ``objects`` is passed)."""
+        obj_logp, obj_inputs = objects or self._objects(pixels, object_masks, True)
+        crops, geometry = part_inputs(pixels, planes, plane_index, values, boxes, counts, obj_inputs, object_masks,
+                                      owner, self.config)
+        return self.read_parts(crops, geometry, obj_logp, owner, calibrated)
 
     # -- public inference ---------------------------------------------------------------------------------------------
 
@@ -564,21 +576,15 @@ class AttributeNet(AttributeReader, nn.Module):
                         + part_logp["material"][:, STYLE_MATERIAL.to(look.device)] + math.log(NUM_STYLES - 1))
         return torch.log_softmax(out, -1)
 
-    def _objects(self, pixels: torch.Tensor, masks: torch.Tensor, calibrated: bool
-                 ) -> tuple[dict[str, torch.Tensor], ObjectInputs]:
-        inputs = object_inputs(pixels, masks, self.config)
+    def read_objects(self, inputs: ObjectInputs, calibrated: bool) -> dict[str, torch.Tensor]:
         self.eval()
-        logp = self.calibrate(self.object_logits(inputs.crops, inputs.geometry), "object", calibrated)
-        return logp, inputs
+        return self.calibrate(self.object_logits(inputs.crops, inputs.geometry), "object", calibrated)
 
-    def _parts(self, pixels, planes, plane_index, values, boxes, counts, object_masks, owner, calibrated,
-               objects: tuple[dict[str, torch.Tensor], ObjectInputs] | None = None) -> dict[str, torch.Tensor]:
-        obj_logp, obj_inputs = objects or self._objects(pixels, object_masks, True)
-        crops, geometry = part_inputs(pixels, planes, plane_index, values, boxes, counts, obj_inputs, object_masks,
-                                      owner, self.config)
+    def read_parts(self, crops: torch.Tensor, geometry: torch.Tensor, object_logp: Mapping[str, torch.Tensor],
+                   owner: torch.Tensor, calibrated: bool) -> dict[str, torch.Tensor]:
         self.eval()
-        logits = self.part_logits(crops, geometry, self.reference(obj_logp)[owner])
-        logp = self.calibrate(logits, "part", calibrated)
+        logp = self.calibrate(self.part_logits(crops, geometry, self.reference(object_logp)[owner]), "part",
+                              calibrated)
         logp["style"] = self.style_loglik(logp)
         return logp
 
@@ -629,18 +635,14 @@ class AttributeEnsemble(AttributeReader, nn.Module):
     def temperatures(self) -> dict[str, float]:
         return {f"member{k}.{name}": t for k, m in enumerate(self.members) for name, t in m.temperatures().items()}
 
-    def _objects(self, pixels: torch.Tensor, masks: torch.Tensor, calibrated: bool
-                 ) -> tuple[dict[str, torch.Tensor], ObjectInputs]:
-        readings = [m._objects(pixels, masks, calibrated) for m in self.members]
-        return {h: log_mean_exp([r[0][h] for r in readings]) for h in readings[0][0]}, readings[0][1]
-
-    def _parts(self, pixels, planes, plane_index, values, boxes, counts, object_masks, owner, calibrated,
-               objects: tuple[dict[str, torch.Tensor], ObjectInputs] | None = None) -> dict[str, torch.Tensor]:
-        objects = objects or self._objects(pixels, object_masks, True)
-        readings = [m._parts(pixels, planes, plane_index, values, boxes, counts, object_masks, owner, calibrated,
-                             objects) for m in self.members]
+    def read_objects(self, inputs: ObjectInputs, calibrated: bool) -> dict[str, torch.Tensor]:
+        readings = [m.read_objects(inputs, calibrated) for m in self.members]
         return {h: log_mean_exp([r[h] for r in readings]) for h in readings[0]}
 
+    def read_parts(self, crops: torch.Tensor, geometry: torch.Tensor, object_logp: Mapping[str, torch.Tensor],
+                   owner: torch.Tensor, calibrated: bool) -> dict[str, torch.Tensor]:
+        readings = [m.read_parts(crops, geometry, object_logp, owner, calibrated) for m in self.members]
+        return {h: log_mean_exp([r[h] for r in readings]) for h in readings[0]}
 
 # --- files -----------------------------------------------------------------------------------------------------------
 
