@@ -609,8 +609,8 @@ def log_mean_exp(tables: Sequence[torch.Tensor]) -> torch.Tensor:
 
 class AttributeEnsemble(AttributeReader, nn.Module):
     """Attribute networks trained alike from different seeds, read as one: each head's output is the equal mixture of
-    the members' calibrated probabilities (a deep ensemble; on the part looks of seed 716 through jittered
-    projections, two members read 0.5-1 point more parts right than either alone, with a lower NLL:
+    the members' calibrated probabilities (a deep ensemble; on the part looks of seeds 712 and 716 through jittered
+    projections, two members read about half a point more parts right than either alone, with a lower NLL:
     docs/perception.md). Every member's part head is given the *ensemble's* reading of the object's look, so the
     members differ only in how they read the crop."""
 
