@@ -406,6 +406,9 @@ class AttributeReader(abc.ABC):
         """Part log-probabilities per head and ``style`` from prepared crops (:func:`part_inputs`), given the
         objects' reading ``object_logp`` (part m belongs to object ``owner[m]``)."""
 
+    def num_parameters(self) -> int:
+        return sum(p.numel() for p in self.parameters())
+
     def _objects(self, pixels: torch.Tensor, masks: torch.Tensor, calibrated: bool
                  ) -> tuple[dict[str, torch.Tensor], ObjectInputs]:
         inputs = object_inputs(pixels, masks, self.config)
@@ -521,9 +524,6 @@ class AttributeNet(AttributeReader, nn.Module):
     def device(self) -> torch.device:
         return self.object_temperature.device
 
-    def num_parameters(self) -> int:
-        return sum(p.numel() for p in self.parameters())
-
     def temperatures(self) -> dict[str, float]:
         out = {f"object.{h}": float(t) for h, t in zip(OBJECT_HEADS, self.object_temperature)}
         return out | {f"part.{h}": float(t) for h, t in zip(PART_HEADS, self.part_temperature)}
@@ -618,8 +618,7 @@ class AttributeEnsemble(AttributeReader, nn.Module):
         super().__init__()
         if len(members) < 2:
             raise InputError("members", f"an ensemble needs at least two attribute networks, got {len(members)}")
-        configs = {json.dumps(m.config.to_dict(), sort_keys=True) for m in members}
-        if len(configs) != 1:
+        if any(m.config != members[0].config for m in members):
             raise InputError("members", "the members were built with different AttributeConfigs; an ensemble reads "
                                         "one set of crops, so train them with the same options")
         self.config = members[0].config
@@ -628,9 +627,6 @@ class AttributeEnsemble(AttributeReader, nn.Module):
     @property
     def device(self) -> torch.device:
         return self.members[0].device
-
-    def num_parameters(self) -> int:
-        return sum(p.numel() for p in self.parameters())
 
     def temperatures(self) -> dict[str, float]:
         return {f"member{k}.{name}": t for k, m in enumerate(self.members) for name, t in m.temperatures().items()}
@@ -643,6 +639,7 @@ class AttributeEnsemble(AttributeReader, nn.Module):
                    owner: torch.Tensor, calibrated: bool) -> dict[str, torch.Tensor]:
         readings = [m.read_parts(crops, geometry, object_logp, owner, calibrated) for m in self.members]
         return {h: log_mean_exp([r[h] for r in readings]) for h in readings[0]}
+
 
 # --- files -----------------------------------------------------------------------------------------------------------
 
