@@ -2,9 +2,9 @@
 
 Each seed's questions are answered once by ours from the image (the evidence cache of ``--cache``; the same
 records ``po3d train answer-calibration`` fits on), then for each objective of
-:data:`po3d_ppl.evaluation.answer_calibration.OBJECTIVES` the calibration is fitted on the other seeds and its
-top-answer ECE (15 bins), mean confidence and NLL are measured on the held-out one. Use validation seeds only: this
-chooses how the shipped calibration is fitted.
+:data:`po3d_ppl.evaluation.answer_calibration.OBJECTIVES`, without and with the top-answer map (``+top``), the
+calibration is fitted on the other seeds and its top-answer ECE (15 bins), mean confidence and NLL are measured
+on the held-out one. Use validation seeds only: this chooses how the shipped calibration is fitted.
 
     python benchmarks/answer_calibration_crossfit.py --data /work/data/perc_val_s712 --data /work/data/val_s716 \\
         --data /work/data/val_s717 --data /work/data/val_s718 --cache /work/data/cache/val --json crossfit.json
@@ -29,7 +29,7 @@ def answered(data: Path, cache: Path | None, backend) -> list:
     return run.records
 
 
-def held_out(records: dict[str, list], objective: str) -> list[dict]:
+def held_out(records: dict[str, list], objective: str, top_answer: bool) -> list[dict]:
     """Per held-out seed: raw accuracy and ECE, and mean confidence, ECE and NLL after the fit on the others."""
     from po3d_ppl.evaluation.answer_calibration import fit
     from po3d_ppl.evaluation.calibration import calibration_report
@@ -37,7 +37,8 @@ def held_out(records: dict[str, list], objective: str) -> list[dict]:
 
     rows = []
     for name, test in records.items():
-        calibration, _ = fit([r for other, rs in records.items() if other != name for r in rs], objective=objective)
+        calibration, _ = fit([r for other, rs in records.items() if other != name for r in rs], objective=objective,
+                             top_answer=top_answer)
         for record in test:
             record.predictions[CALIBRATED] = recalibrated(record, calibration)
         raw, after = calibration_report(test, "ours").row(), calibration_report(test, CALIBRATED).row()
@@ -61,15 +62,17 @@ def main() -> None:
     records = {d.name: answered(d, args.cache, backend) for d in args.data}
     report = {}
     for objective in OBJECTIVES:
-        rows = held_out(records, objective)
-        report[objective] = {"rows": rows, "mean_ece": statistics.mean(r["ece"] for r in rows),
-                             "mean_nll": statistics.mean(r["nll"] for r in rows)}
-        for r in rows:
-            print(f"{objective:6s} {r['held_out']:16s} n {r['questions']:5d} accuracy {r['accuracy']:.4f} "
-                  f"raw ECE {r['ece_raw']:.4f} -> confidence {r['confidence']:.4f} ECE {r['ece']:.4f} "
-                  f"NLL {r['nll']:.3f}")
-        print(f"{objective:6s} mean held-out ECE {report[objective]['mean_ece']:.4f}, "
-              f"NLL {report[objective]['mean_nll']:.3f}")
+        for top_answer in (False, True):
+            family = f"{objective}+top" if top_answer else objective
+            rows = held_out(records, objective, top_answer)
+            report[family] = {"rows": rows, "mean_ece": statistics.mean(r["ece"] for r in rows),
+                              "mean_nll": statistics.mean(r["nll"] for r in rows)}
+            for r in rows:
+                print(f"{family:9s} {r['held_out']:16s} n {r['questions']:5d} accuracy {r['accuracy']:.4f} "
+                      f"raw ECE {r['ece_raw']:.4f} -> confidence {r['confidence']:.4f} ECE {r['ece']:.4f} "
+                      f"NLL {r['nll']:.3f}")
+            print(f"{family:9s} mean held-out ECE {report[family]['mean_ece']:.4f}, "
+                  f"NLL {report[family]['mean_nll']:.3f}")
     if args.json is not None:
         args.json.write_text(json.dumps(report, indent=1))
 

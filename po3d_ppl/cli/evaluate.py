@@ -227,9 +227,12 @@ def train_answer_calibration_command(
     method: str = typer.Option("ours", "--method", help="Whose answers to calibrate: ours (what the pipeline "
                                "returns), or a baseline (soft, thresholded), which the evaluation then also reports "
                                "recalibrated, for a like-for-like ECE comparison."),
+    top_answer: bool = typer.Option(True, "--top-answer/--no-top-answer", help="Also fit the top-answer map (the "
+                                    "top outcome's probability -> how often it is right, every type pooled) after "
+                                    "the per-type temperatures and smoothings."),
 ) -> None:
-    """Fit the answer calibration (a temperature and a smoothing per answer type) on a VALIDATION dataset's
-    questions answered from the image, and ship it: the pipeline applies ours to every answer from an image; a
+    """Fit the answer calibration (a temperature and a smoothing per answer type, then a map of the top outcome's
+    probability) on a VALIDATION dataset's questions answered from the image, and ship it: the pipeline applies ours to every answer from an image; a
     baseline's is applied by the evaluation only. Never fit it on the split you report."""
     import shlex
 
@@ -256,7 +259,7 @@ def train_answer_calibration_command(
         records += run.records
         images += run.images
         manifests.append(dataset.manifest)
-    calibration, per_type = fit(records, method, objective=objective)
+    calibration, per_type = fit(records, method, objective=objective, top_answer=top_answer)
     for record in records:
         record.predictions[calibrated_variant(method)] = recalibrated(record, calibration, method)
     before, after = calibration_report(records, method), calibration_report(records, calibrated_variant(method))
@@ -267,6 +270,7 @@ def train_answer_calibration_command(
         words += ["--data", str(dataset_dir)]
     words += ["--split", split, "--perception", perception, "--priors", priors, "--objective", objective]
     words += ["--method", method] if method != PIPELINE_METHOD else []
+    words += [] if top_answer else ["--no-top-answer"]
     words += ["--limit", str(limit)] if limit else []
     words += ["--noise", str(noise), "--seed", str(seed)] if perception == "simulated" else []
     words += ["--out", str(out)] if out is not None else []

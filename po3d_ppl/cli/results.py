@@ -351,7 +351,8 @@ def _markdown(command, run, perception, rows, reports, by_variant, differences, 
               "## Calibration of the top answer and of the full distribution", "",
               "ECE: 15 bins (torchmetrics, confidences clamped below 1: its issue #3510). `ours_calibrated`: the "
               "shipped answer calibration (`models/answer_calibration.json`, a temperature and a smoothing per "
-              "answer type fitted on validation seeds, never this one). `soft_calibrated` and "
+              "answer type, then a monotone map of the top outcome's probability, fitted on validation seeds, never "
+              "this one). `soft_calibrated` and "
               "`thresholded_calibrated`: the same map fitted the same way for each baseline "
               "(`models/answer_calibration_<method>.json`), so the ECEs also compare like for like; the pipeline "
               "never applies them, and the accuracy tables above leave them out (the map is monotone: it keeps the "

@@ -6,10 +6,17 @@ A true answer outside the type's support is counted at the NLL floor of :mod:`po
 Types with fewer than ``min_questions`` questions are left uncalibrated. ``objective="brier"`` minimises the
 full distribution's Brier score instead, which a truth with no mass costs at most 2 rather than the floor's NLL
 (a leave-one-seed-out comparison: ``benchmarks/answer_calibration_crossfit.py``).
+
+Then, with ``top_answer`` (the default), the :class:`~po3d_ppl.reasoning.answer_calibration.TopAnswerMap` is
+fitted on the same questions as the types recalibrate them: scikit-learn's isotonic regression of "the top
+outcome is right" on its probability, every type pooled. On the four validation seeds, each held out in turn, it
+lowered ours' ECE from 0.0205 to 0.0179 on average (soft's from 0.0201 to 0.0174); maps fitted per type followed
+each seed's noise and raised it (docs/evaluation.md).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 
@@ -17,8 +24,8 @@ import torch
 
 from po3d_ppl.errors import InputError
 from po3d_ppl.evaluation.calibration import NLL_FLOOR
-from po3d_ppl.evaluation.runner import QuestionRecord, _same
-from po3d_ppl.reasoning.answer_calibration import AnswerCalibration, TypeCalibration, answer_support
+from po3d_ppl.evaluation.runner import QuestionRecord, _same, recalibrated
+from po3d_ppl.reasoning.answer_calibration import AnswerCalibration, TopAnswerMap, TypeCalibration, answer_support
 
 TEMPERATURES = torch.logspace(math.log10(0.25), math.log10(40.0), 49, dtype=torch.float64)
 SMOOTHINGS = torch.tensor([0.0, 0.002, 0.005, 0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.125, 0.15, 0.2, 0.25, 0.3,
@@ -81,10 +88,35 @@ def check_objective(objective: str, option: str = "objective") -> str:
     return objective
 
 
-def fit(records: Sequence[QuestionRecord], variant: str = "ours", min_questions: int = 50, objective: str = "nll"
-        ) -> tuple[AnswerCalibration, dict[str, dict]]:
+#: The fewest questions (all types together) a top-answer map is fitted on; with fewer it is left out.
+MIN_TOP_ANSWER_QUESTIONS = 200
+
+
+def fit_top_answer(records: Sequence[QuestionRecord], variant: str = "ours") -> TopAnswerMap | None:
+    """The isotonic map of the top outcome's probability (the top answer's, or the invalid mass where that is
+    larger) to its being right, over the questions of ``records`` that ``variant`` gives answers; None with fewer
+    than :data:`MIN_TOP_ANSWER_QUESTIONS` of them."""
+    from sklearn.isotonic import IsotonicRegression
+
+    confidence, right = [], []
+    for record in records:
+        prediction = record.predictions[variant]
+        if prediction.probs:
+            confidence.append(prediction.confidence)
+            right.append(float(_same(prediction.top, record.item.truth)))
+    if len(confidence) < MIN_TOP_ANSWER_QUESTIONS:
+        return None
+    isotonic = IsotonicRegression(y_min=0.0, y_max=1.0, increasing=True, out_of_bounds="clip")
+    isotonic.fit(confidence, right)
+    return TopAnswerMap(tuple(map(float, isotonic.X_thresholds_)), tuple(map(float, isotonic.y_thresholds_)))
+
+
+def fit(records: Sequence[QuestionRecord], variant: str = "ours", min_questions: int = 50, objective: str = "nll",
+        top_answer: bool = True) -> tuple[AnswerCalibration, dict[str, dict]]:
     """(the calibration, per answer type: questions, fitted parameters and NLL before and after) from one run;
-    ``objective`` names the proper scoring rule minimised (:data:`OBJECTIVES`)."""
+    ``objective`` names the proper scoring rule minimised (:data:`OBJECTIVES`); ``top_answer`` adds the
+    :func:`fit_top_answer` map, fitted on the answers as the types recalibrate them (its knots under the
+    report's ``top_answer`` key)."""
     check_objective(objective)
     by_type: dict[str, list[QuestionRecord]] = {}
     for r in records:
@@ -105,4 +137,10 @@ def fit(records: Sequence[QuestionRecord], variant: str = "ours", min_questions:
         report[answer_type] = {"questions": len(members), "temperature": fitted.temperature,
                                "smoothing": fitted.smoothing, "nll_before": round(float(identity), 4),
                                "nll_after": round(float(grid[t, s]), 4)}
-    return AnswerCalibration(types), report
+    calibration = AnswerCalibration(types)
+    if top_answer:
+        typed = [dataclasses.replace(r, predictions={variant: recalibrated(r, calibration, variant)}) for r in records]
+        top = fit_top_answer(typed, variant)
+        report["top_answer"] = {"questions": len(typed), "knots": 0 if top is None else len(top.confidence)}
+        calibration = AnswerCalibration(types, top)
+    return calibration, report
