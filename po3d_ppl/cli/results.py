@@ -340,8 +340,8 @@ def _markdown(command, run, perception, rows, reports, by_variant, differences, 
         "## Accuracy (paper's Table 1 columns, %)", "",
         "All methods reason over the same perception evidence per image; `oracle` is the reference executor on "
         "the true scene. `ours_calibrated` is `ours` through the shipped answer calibration (monotone over the "
-        "answers, the invalid mass kept: the top outcome changes only where the best answer and the invalid mass are "
-        "close).", "",
+        "answers, and its top-outcome map keeps the top outcome on top: the top outcome changes only where a "
+        "temperature moves the best answer across the invalid mass).", "",
         table1_markdown(rows), "", "### Per question file (%)", "", _per_file(run, run.variants), "",
         "## Difficulty (paper section 5.4)", "",
     ]

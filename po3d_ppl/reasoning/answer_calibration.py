@@ -81,10 +81,13 @@ class TypeCalibration:
 
 def answer_support(answer_type: str, answers) -> list:
     """The answers a type's smoothing spreads over: the type's vocabulary (counts 0..max(10, largest answer)),
-    plus any answer of the distribution outside it."""
-    from po3d_ppl.reasoning.values import support
+    plus any answer of the distribution outside it. A type without a vocabulary (``"mixed"``: parses of several
+    types in one distribution) spreads over its own answers."""
+    from po3d_ppl.reasoning.values import ANSWER_VOCABULARY, support
 
     answers = list(answers)
+    if answer_type not in ("Bool", "Integer") and answer_type not in ANSWER_VOCABULARY:
+        return answers
     largest = max([MIN_INTEGER_SUPPORT, *(a for a in answers if isinstance(a, int) and not isinstance(a, bool))])
     values = support(answer_type, largest)
     known = set(map(repr, values))
