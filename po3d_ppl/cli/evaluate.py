@@ -232,8 +232,9 @@ def train_answer_calibration_command(
                                     "the per-type temperatures and smoothings."),
 ) -> None:
     """Fit the answer calibration (a temperature and a smoothing per answer type, then a map of the top outcome's
-    probability) on a VALIDATION dataset's questions answered from the image, and ship it: the pipeline applies ours to every answer from an image; a
-    baseline's is applied by the evaluation only. Never fit it on the split you report."""
+    probability) on a VALIDATION dataset's questions answered from the image, and ship it: the pipeline applies
+    ours to every answer from an image; a baseline's is applied by the evaluation only. Never fit it on the split
+    you report."""
     import shlex
 
     from rich.console import Console

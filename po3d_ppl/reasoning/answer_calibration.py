@@ -12,9 +12,9 @@ missed object), and NLL then drives it far too high (seed 712: confidence 0.62 a
 fitted by NLL on a validation seed's questions (:func:`po3d_ppl.evaluation.answer_calibration.fit`), never on the
 test split. The map is monotone over the answers, so the most probable answer stays the most probable answer.
 
-The types' stage keeps the invalid mass (presupposition failure) as it is: only the answers' shares are tempered. Where the best
-answer and the invalid mass are close, tempering can move the best answer below it (or above), so the top outcome,
-and the accuracy, change in those few questions (seed 720: Part+Occ. 66.87% raw, 66.92% recalibrated). The pipeline
+The types' stage keeps the invalid mass (presupposition failure) as it is: only the answers' shares are
+tempered. Where the best answer and the invalid mass are close, tempering can move the best answer below it (or
+above), so the top outcome, and the accuracy, change in those few questions (seed 720: Part+Occ. 66.87% raw, 66.92% recalibrated). The pipeline
 applies the shipped calibration (``models/answer_calibration.json``) to the distributions it returns; the raw
 posterior stays available (``Pipeline(answer_calibration=None)``) and the evaluation reports both.
 
