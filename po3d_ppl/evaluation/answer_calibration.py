@@ -23,7 +23,7 @@ from collections.abc import Sequence
 import torch
 
 from po3d_ppl.errors import InputError
-from po3d_ppl.evaluation.calibration import NLL_FLOOR
+from po3d_ppl.evaluation.calibration import NLL_FLOOR, top_answers
 from po3d_ppl.evaluation.runner import QuestionRecord, _same, recalibrated
 from po3d_ppl.reasoning.answer_calibration import AnswerCalibration, TopAnswerMap, TypeCalibration, answer_support
 
@@ -98,16 +98,11 @@ def fit_top_answer(records: Sequence[QuestionRecord], variant: str = "ours") -> 
     than :data:`MIN_TOP_ANSWER_QUESTIONS` of them."""
     from sklearn.isotonic import IsotonicRegression
 
-    confidence, right = [], []
-    for record in records:
-        prediction = record.predictions[variant]
-        if prediction.probs:
-            confidence.append(prediction.confidence)
-            right.append(float(_same(prediction.top, record.item.truth)))
+    confidence, right = top_answers([r for r in records if r.predictions[variant].probs], variant)
     if len(confidence) < MIN_TOP_ANSWER_QUESTIONS:
         return None
     isotonic = IsotonicRegression(y_min=0.0, y_max=1.0, increasing=True, out_of_bounds="clip")
-    isotonic.fit(confidence, right)
+    isotonic.fit(confidence, [float(r) for r in right])
     return TopAnswerMap(tuple(map(float, isotonic.X_thresholds_)), tuple(map(float, isotonic.y_thresholds_)))
 
 
