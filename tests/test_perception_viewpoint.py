@@ -19,6 +19,7 @@ from po3d_ppl.perception.train_viewpoint import (
     angular_error,
     calibrate_viewpoint,
     crop_logits,
+    cut_masks,
     measure,
     train_viewpoint,
 )
@@ -86,6 +87,23 @@ def test_combine_pose_is_a_normalised_product():
 def test_angular_error_wraps():
     assert angular_error(torch.tensor([350.0, 10.0, 180.0]), torch.tensor([10.0, 350.0, 0.0])).tolist() == \
         [20.0, 20.0, 180.0]
+
+
+def test_cut_masks_removes_one_side_of_the_mask_and_keeps_the_image():
+    crops = torch.rand(8, 4, 24, 24)
+    crops[:, 3] = 0.0
+    crops[:, 3, 4:20, 2:22] = 1.0
+    crops[7, 3] = 0.0  # an empty mask stays empty
+    config = ViewpointTrainConfig(mask_cut=1.0, mask_cut_share=(0.2, 0.4))
+    cut = cut_masks(crops, config, torch.Generator().manual_seed(0))
+    assert torch.equal(cut[:, :3], crops[:, :3])
+    kept = cut[:7, 3].sum((1, 2)) / crops[:7, 3].sum((1, 2))
+    assert bool(((kept >= 0.58) & (kept <= 0.82)).all()), kept
+    assert bool((cut[:, 3] <= crops[:, 3]).all()) and float(cut[7, 3].sum()) == 0.0
+    untouched = cut_masks(crops, ViewpointTrainConfig(mask_cut=0.0), torch.Generator().manual_seed(0))
+    assert torch.equal(untouched, crops)
+    with pytest.raises(InputError, match="mask_cut"):
+        ViewpointTrainConfig(mask_cut=1.5)
 
 
 @pytest.fixture(scope="module")

@@ -45,6 +45,9 @@ def train_viewpoint_command(
     batch_size: Annotated[int, typer.Option("--batch-size", min=1, help="Objects a step.")] = 32,
     lr: Annotated[float, typer.Option("--lr", help="Peak learning rate (one-cycle).")] = 3e-3,
     max_steps: Annotated[int | None, typer.Option("--max-steps", min=1, help="Stop after this many steps.")] = None,
+    mask_cut: Annotated[float, typer.Option(
+        "--mask-cut", min=0.0, max=1.0, help="Probability of cutting a crop's mask along a random line (the "
+                                             "parser's masks of occluded objects miss a side of what shows).")] = 0.0,
     splits: Annotated[str, typer.Option("--splits", help="Comma-separated splits of each --data to train on.")
                       ] = "train",
     val_split: Annotated[str, typer.Option("--val-split", help="Split of the first --data for the temperature.")
@@ -78,7 +81,8 @@ def train_viewpoint_command(
     check_seed(seed)
     torch.set_num_threads(threads)
     console = Console()
-    config = ViewpointTrainConfig(seed=seed, epochs=epochs, batch_size=batch_size, lr=lr, max_steps=max_steps)
+    config = ViewpointTrainConfig(seed=seed, epochs=epochs, batch_size=batch_size, lr=lr, max_steps=max_steps,
+                                  mask_cut=mask_cut)
     split_list = comma_list(splits)
     train = ViewpointData.concat([_load(console, d, s, config.net, cache) for d in data for s in split_list])
     val = _load(console, data[0], val_split, config.net, cache)
@@ -114,6 +118,8 @@ def train_viewpoint_command(
              "--splits", ",".join(split_list), "--val-split", val_split, "--threads", str(threads)]
     if max_steps is not None:
         words += ["--max-steps", str(max_steps)]
+    if mask_cut > 0:
+        words += ["--mask-cut", str(mask_cut)]
     if eval_data is not None:
         words += ["--eval-data", str(eval_data)]
     if out is not None:

@@ -98,6 +98,11 @@ class ViewpointTrainConfig:
     flip: bool = True
     mask_jitter: float = 0.25
     window_jitter: float = 0.08
+    #: Probability of cutting a crop's mask along a random line (:func:`cut_masks`): the parser's masks of occluded
+    #: objects miss part of what shows (median recall 0.79 for objects >= 20% occluded on seeds 712 and 716).
+    mask_cut: float = 0.0
+    #: Share of the mask's pixels a cut removes, drawn uniformly from this range.
+    mask_cut_share: tuple[float, float] = (0.1, 0.45)
     #: Weight of the dense part-segmentation loss.
     dense_weight: float = 0.5
     max_steps: int | None = None
@@ -107,11 +112,40 @@ class ViewpointTrainConfig:
         for name in ("epochs", "batch_size"):
             if getattr(self, name) < 1:
                 raise InputError(name, f"must be at least 1, got {getattr(self, name)}")
+        low, high = self.mask_cut_share
+        if not (0.0 <= self.mask_cut <= 1.0 and 0.0 <= low <= high < 1.0):
+            raise InputError("mask_cut", f"expected a probability and shares 0 <= low <= high < 1, got "
+                                         f"{self.mask_cut}, {self.mask_cut_share}")
 
     def to_dict(self) -> dict:
         d = asdict(self)
         d["net"] = self.net.to_dict()
         return d
+
+
+def cut_masks(crops: torch.Tensor, config: ViewpointTrainConfig, g: torch.Generator) -> torch.Tensor:
+    """Crops (RGB then mask) whose mask loses, with probability ``config.mask_cut``, the pixels on one side of a
+    random line: a share drawn from ``config.mask_cut_share`` of its pixels, the image left as it is. This is the
+    parser's mask of an occluded object, which is sure of what it holds but misses a side of what shows. Through
+    such masks the network read 0.69 of the objects >= 20% occluded within 30 degrees (ground-truth masks: 0.95)."""
+    b, _, height, width = crops.shape
+    if config.mask_cut <= 0 or b == 0:
+        return crops
+    chosen = torch.rand(b, generator=g) < config.mask_cut
+    angle = torch.rand(b, generator=g) * 2 * math.pi
+    low, high = config.mask_cut_share
+    share = low + torch.rand(b, generator=g) * (high - low)
+    ys, xs = torch.meshgrid(torch.arange(height, dtype=crops.dtype), torch.arange(width, dtype=crops.dtype),
+                            indexing="ij")
+    along = (torch.cos(angle)[:, None, None] * xs + torch.sin(angle)[:, None, None] * ys).reshape(b, -1)
+    mask = crops[:, 3].reshape(b, -1) > 0.5
+    ranked = torch.where(mask, along, torch.full_like(along, math.inf)).sort(-1).values
+    count = mask.sum(-1)
+    k = (share * count).long().clamp(max=height * width - 1)
+    threshold = ranked.gather(1, k[:, None])
+    cut = chosen[:, None] & (count[:, None] > 0) & (along < threshold)
+    kept = crops[:, 3:].reshape(b, -1, height * width) * (~cut)[:, None].to(crops.dtype)
+    return torch.cat([crops[:, :3], kept.reshape(b, -1, height, width)], 1)
 
 
 def _losses(net: ViewpointNet, data: ViewpointData, rows: torch.Tensor, config: ViewpointTrainConfig,
@@ -121,6 +155,7 @@ def _losses(net: ViewpointNet, data: ViewpointData, rows: torch.Tensor, config: 
     dense = data.crops.object_parts[rows].long()
     dense = torch.where(flip[:, None, None], DENSE_MIRROR[dense.flip(-1)], dense)
     crops, dense = jitter_windows(crops, dense, config, g)
+    crops = cut_masks(crops, config, g)
     degrees = torch.where(flip, -data.pose_degree[rows], data.pose_degree[rows])
     targets = soft_azimuth_targets(degrees, config.net.azimuth_bins)
     out = net(crops.to(device), geometry.to(device))
