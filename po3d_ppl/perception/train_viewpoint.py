@@ -10,7 +10,8 @@ split image by image in scene order, so the labels are read in the same order.
 dense part-segmentation auxiliary loss on the stride-8 map (which of the 85 raw parts, left or right, front or
 back, each cell shows: exactly what the azimuth is about). Augmentation: mirror flips (crop, box scalars, azimuth
 ``-pose_degree`` and left/right part labels alike), window scale and shift, one-pixel mask dilation/erosion (the
-parser's masks and boxes are not the ground truth's). Seeded like the attribute network: same seed, data and thread
+parser's masks and boxes are not the ground truth's), and masks cut along a random line (:func:`cut_masks`: the
+parser's masks of occluded objects miss a side of what shows). Seeded like the attribute network: same seed, data and thread
 count, same weights.
 
 **Calibration.** One temperature on the validation split's crops (minimum NLL of the nearest bin).
