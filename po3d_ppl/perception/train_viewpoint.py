@@ -11,8 +11,8 @@ dense part-segmentation auxiliary loss on the stride-8 map (which of the 85 raw 
 back, each cell shows: exactly what the azimuth is about). Augmentation: mirror flips (crop, box scalars, azimuth
 ``-pose_degree`` and left/right part labels alike), window scale and shift, one-pixel mask dilation/erosion (the
 parser's masks and boxes are not the ground truth's), and masks cut along a random line (:func:`cut_masks`: the
-parser's masks of occluded objects miss a side of what shows). Seeded like the attribute network: same seed, data and thread
-count, same weights.
+parser's masks of occluded objects miss a side of what shows). Seeded like the attribute network: same seed, data
+and thread count, same weights.
 
 **Calibration.** One temperature on the validation split's crops (minimum NLL of the nearest bin).
 """
@@ -127,8 +127,9 @@ class ViewpointTrainConfig:
 def cut_masks(crops: torch.Tensor, config: ViewpointTrainConfig, g: torch.Generator) -> torch.Tensor:
     """Crops (RGB then mask) whose mask loses, with probability ``config.mask_cut``, the pixels on one side of a
     random line: a share drawn from ``config.mask_cut_share`` of its pixels, the image left as it is. This is the
-    parser's mask of an occluded object, which is sure of what it holds but misses a side of what shows. Through
-    such masks the network read 0.69 of the objects >= 20% occluded within 30 degrees (ground-truth masks: 0.95)."""
+    parser's mask of an occluded object, which is sure of what it holds but misses a side of what shows. Trained on
+    whole true masks, the network read 0.69 of the objects >= 20% occluded of seeds 712 and 716 within 30 degrees
+    through the parser's masks, against 0.93 through their true masks (seed 716)."""
     b, _, height, width = crops.shape
     if config.mask_cut <= 0 or b == 0:
         return crops
