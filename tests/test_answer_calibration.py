@@ -170,10 +170,10 @@ def test_top_answer_map_moves_the_top_outcome_only_and_keeps_it_on_top():
     # ... unless the map would bring it down to an answer (a tie goes to the answer): then it stays
     low = AnswerCalibration(top_answer=TopAnswerMap((0.0, 1.0), (0.0, 0.1))).apply(_dist({True: 0.4}, "Bool", 0.6))
     assert low.invalid == 0.6 and low.probs == {True: 0.4}
-    # one answer with all the mass: what the map takes goes evenly to the type's other answers
     # a distribution mixing parses of several types has no vocabulary: the map reads its own answers
     mixed = AnswerCalibration(top_answer=top_map).apply(_dist({2: 0.9, "red": 0.1}, "mixed"))
     assert mixed.probs[2] == pytest.approx(0.8) and mixed.probs["red"] == pytest.approx(0.2)
+    # one answer with all the mass: what the map takes goes evenly to the type's other answers
     sure = AnswerCalibration(top_answer=top_map).apply(_dist({2: 1.0}, "Integer"))
     assert sure.probs[2] == pytest.approx(0.8) and sure.probs[0] == pytest.approx(0.2 / 10) and len(sure.probs) == 11
 

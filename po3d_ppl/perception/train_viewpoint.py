@@ -142,10 +142,9 @@ def cut_masks(crops: torch.Tensor, config: ViewpointTrainConfig, g: torch.Genera
     along = (torch.cos(angle)[:, None, None] * xs + torch.sin(angle)[:, None, None] * ys).reshape(b, -1)
     mask = crops[:, 3].reshape(b, -1) > 0.5
     ranked = torch.where(mask, along, torch.full_like(along, math.inf)).sort(-1).values
-    count = mask.sum(-1)
-    k = (share * count).long().clamp(max=height * width - 1)
+    k = (share * mask.sum(-1)).long()  # below the mask's pixel count, so the threshold is one of its pixels
     threshold = ranked.gather(1, k[:, None])
-    cut = chosen[:, None] & (count[:, None] > 0) & (along < threshold)
+    cut = chosen[:, None] & (along < threshold)
     kept = crops[:, 3:].reshape(b, -1, height * width) * (~cut)[:, None].to(crops.dtype)
     return torch.cat([crops[:, :3], kept.reshape(b, -1, height, width)], 1)
 

@@ -14,9 +14,10 @@ test split. The map is monotone over the answers, so the most probable answer st
 
 The types' stage keeps the invalid mass (presupposition failure) as it is: only the answers' shares are
 tempered. Where the best answer and the invalid mass are close, tempering can move the best answer below it (or
-above), so the top outcome, and the accuracy, change in those few questions (seed 720: Part+Occ. 66.87% raw, 66.92% recalibrated). The pipeline
-applies the shipped calibration (``models/answer_calibration.json``) to the distributions it returns; the raw
-posterior stays available (``Pipeline(answer_calibration=None)``) and the evaluation reports both.
+above), so the top outcome, and the accuracy, change in those few questions (seed 720: Part+Occ. 66.87% raw,
+66.92% recalibrated). The pipeline applies the shipped calibration (``models/answer_calibration.json``) to the
+distributions it returns; the raw posterior stays available (``Pipeline(answer_calibration=None)``) and the
+evaluation reports both.
 
 **The top answer's confidence.** Fitted by NLL, the smoothing that pays for missed objects also takes mass from
 the many answers that are right, so the most probable answer ends up under-confident (validation seeds 712 and
@@ -83,10 +84,10 @@ def answer_support(answer_type: str, answers) -> list:
     """The answers a type's smoothing spreads over: the type's vocabulary (counts 0..max(10, largest answer)),
     plus any answer of the distribution outside it. A type without a vocabulary (``"mixed"``: parses of several
     types in one distribution) spreads over its own answers."""
-    from po3d_ppl.reasoning.values import ANSWER_VOCABULARY, support
+    from po3d_ppl.reasoning.values import has_support, support
 
     answers = list(answers)
-    if answer_type not in ("Bool", "Integer") and answer_type not in ANSWER_VOCABULARY:
+    if not has_support(answer_type):
         return answers
     largest = max([MIN_INTEGER_SUPPORT, *(a for a in answers if isinstance(a, int) and not isinstance(a, bool))])
     values = support(answer_type, largest)

@@ -28,6 +28,12 @@ ANSWER_VOCABULARY: dict[str, tuple[str, ...]] = {
 }
 
 
+def has_support(value_type: str) -> bool:
+    """Whether :func:`support` knows the answers of ``value_type`` (not so for ``"mixed"`` distributions, which pool
+    parses of several types)."""
+    return value_type in ("Bool", "Integer") or value_type in ANSWER_VOCABULARY
+
+
 def support(value_type: str, max_count: int) -> list:
     """All possible answers of an output type (``max_count`` bounds Integer answers)."""
     if value_type == "Bool":
