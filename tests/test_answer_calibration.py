@@ -188,8 +188,12 @@ def test_top_answer_map_file_round_trip_and_typed_errors(tmp_path):
     calibration = AnswerCalibration({"Bool": TypeCalibration(0.8, 0.05)}, TopAnswerMap((0.25, 0.75), (0.3, 0.7)))
     write_entry(MODEL_NAME, [calibration.save(tmp_path)], tmp_path, command="test")
     assert load_answer_calibration(tmp_path) == calibration
-    old = AnswerCalibration({"Bool": TypeCalibration(0.8, 0.05)})  # files without the map keep their layout
-    assert AnswerCalibration.from_dict(old.to_dict()) == old and "types" not in old.to_dict()
+    unmapped = AnswerCalibration({"Bool": TypeCalibration(0.8, 0.05)})  # one layout, with or without the map
+    assert AnswerCalibration.from_dict(unmapped.to_dict()) == unmapped and unmapped.to_dict()["top_answer"] is None
+    (tmp_path / FILE).write_text('{"Bool": {"temperature": 0.8, "smoothing": 0.05}}')  # the layout before the map
+    write_entry(MODEL_NAME, [tmp_path / FILE], tmp_path, command="test")
+    with pytest.raises(ModelFileError, match="no 'types' or 'top_answer' entry.*po3d train answer-calibration"):
+        load_answer_calibration(tmp_path)
     (tmp_path / FILE).write_text('{"types": {}, "top_answer": {"confidence": [0.5], "accuracy": [2.0]}}')
     write_entry(MODEL_NAME, [tmp_path / FILE], tmp_path, command="test")
     with pytest.raises(ModelFileError, match="in \\[0, 1\\]"):

@@ -188,15 +188,16 @@ class AnswerCalibration:
 
     def to_dict(self) -> dict[str, dict]:
         types = {name: {"temperature": c.temperature, "smoothing": c.smoothing} for name, c in self.types.items()}
-        if self.top_answer is None:
-            return types  # the layout of the files written before the top-answer map
-        return {"types": types, "top_answer": self.top_answer.to_dict()}
+        return {"types": types, "top_answer": None if self.top_answer is None else self.top_answer.to_dict()}
 
     @staticmethod
     def from_dict(record: dict) -> AnswerCalibration:
-        """The inverse of :meth:`to_dict` (either layout)."""
-        types = record["types"] if "types" in record else record
-        top = record.get("top_answer")
+        """The inverse of :meth:`to_dict`."""
+        missing = [key for key in ("types", "top_answer") if key not in record]
+        if missing:
+            raise InputError("answer calibration", f"has no {' or '.join(map(repr, missing))} entry (a file written "
+                                                   "before the top-answer map, or not a calibration file)")
+        types, top = record["types"], record["top_answer"]
         return AnswerCalibration(
             {str(name): TypeCalibration(float(c["temperature"]), float(c["smoothing"])) for name, c in types.items()},
             None if top is None else TopAnswerMap(tuple(map(float, top["confidence"])),
