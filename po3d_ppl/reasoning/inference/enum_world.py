@@ -153,6 +153,11 @@ class EnumWorld(LatentWorld):
         """``arange(dim.size)`` placed on the dimension (for advanced indexing and comparisons)."""
         return torch.arange(dim.size).view(dim.size, *([1] * (-dim.pos - 1)))
 
+    @staticmethod
+    def _single(dim: Dim) -> torch.Tensor:
+        """Index 0 placed on the dimension with size 1: a value that does not vary along ``dim`` broadcasts."""
+        return torch.zeros((1,) * -dim.pos, dtype=torch.long)
+
     # ---- latent sites ----------------------------------------------------------------------------------------
     def _by_model(self, name: str) -> bool:
         """Whether object site ``name`` depends on the subtype hypothesis (a switch the evidence tells apart)."""
@@ -160,7 +165,8 @@ class EnumWorld(LatentWorld):
 
     def _object_site(self, name: str) -> tuple[Dim, torch.Tensor]:
         """The generic object's dimension for site ``name`` and its compacted values ``[N, E]`` (``[N, E_s, E]``
-        for a site that depends on the subtype hypothesis: its table then follows the subtype's dimension)."""
+        for a site that depends on the subtype hypothesis: its table then follows the subtype's dimension;
+        ``[N, 1, E]`` when only the probabilities do, as the pose bins' degrees)."""
         if name not in self._object_sites:
             support = self.post.support[name]
             support = support.unsqueeze(0) if support.dim() == 1 else support
@@ -170,14 +176,21 @@ class EnumWorld(LatentWorld):
                 probs_c, vals_c = _compact(by_support, support.unsqueeze(-2).expand(by_support.shape))
                 dim = self.alloc(name, probs_c.shape[-1], "local")
                 at = (self._ar_n, self.ar(sub_dim), self.ar(dim))
+                values_at = at
+                if bool((vals_c == vals_c[:, :1]).all()):
+                    # the same values under every subtype (the pose bins' degrees): only their probabilities
+                    # follow the subtype, so the values are placed off its dimension and what compares them
+                    # (a pose relation: pivot x object x both poses) is not 21 x 21 times larger than it needs
+                    vals_c = vals_c[:, :1]
+                    values_at = (self._ar_n, self._single(sub_dim), self.ar(dim))
             else:
                 probs = self.post.shared.get(name, self.post.probs[name])
                 probs_c, vals_c = _compact(probs, support)
                 dim = self.alloc(name, probs_c.shape[-1], "local")
-                at = (self._ar_n, self.ar(dim))
+                at = values_at = (self._ar_n, self.ar(dim))
             self.q[dim] = probs_c[at]
             self._object_sites[name] = (dim, vals_c)
-            self._placed[name] = vals_c[at]
+            self._placed[name] = vals_c[values_at]
         return self._object_sites[name]
 
     def _object_values(self, name: str) -> torch.Tensor:
@@ -286,7 +299,8 @@ class EnumWorld(LatentWorld):
             self.factors.append(Factor(Sop.lift(self.ar(copy) == self.ar(dim)), None, owner=owner))
             if self._by_model(site):  # the copy's values follow the pivot's own subtype (its copy)
                 sub_copy, _ = self._copy(owner, "subtype")
-                self._copies[key] = (copy, vals[j, self.ar(sub_copy), self.ar(copy)])
+                along = self.ar(sub_copy) if vals.shape[1] > 1 else self._single(sub_copy)
+                self._copies[key] = (copy, vals[j, along, self.ar(copy)])
             else:
                 self._copies[key] = (copy, vals[j, self.ar(copy)])
         return self._copies[key]
