@@ -155,6 +155,35 @@ def test_difficulty_comes_from_the_trace(certain_run, tiny):
     assert sum(row.n for row in rows) == len(pose) and [row.bin for row in rows] == list(dif.OCCLUSION_BINS)
 
 
+def test_referents_found_marks_the_questions_about_objects_perception_missed(tiny, certain_run):
+    from po3d_ppl.evaluation.ceilings import objects_subset
+    from po3d_ppl.evaluation.report import difficulty_markdown
+    from po3d_ppl.questions.executor import execute
+
+    assert all(r.referents_found for r in certain_run.records)  # the noiseless sensor's boxes are the truth's
+
+    def without_first_object(evidence, scene):  # as if perception had missed the scene's object 0
+        return objects_subset(evidence, list(range(1, evidence.num_objects)))
+
+    run = evaluate(tiny, SPLIT, SimulatedBackend(noise=0.0), ("ours",), limit=2,
+                   evidence_transform=without_first_object)
+    for r in run.records:
+        objects, parts = dif.trace_referents(execute(tiny.scene(r.item.image_index), r.item.program))
+        assert r.referents_found == (0 not in objects | {owner for owner, _ in parts}), r.item.question
+    missed = [r for r in run.records if not r.referents_found]
+    assert missed and len(missed) < len(run.records)
+    columns = sorted({r.item.column for r in run.records if r.item.column})
+    rows = dif.difficulty_table(run.records, ["ours"], columns, "occlusion")
+    binned = [r for r in run.records if r.item.column in columns and r.occlusion_ratio is not None]
+    assert sum(row.found for row in rows) == sum(r.referents_found for r in binned) < len(binned)
+    for row in rows:
+        if row.found:
+            right = [r.correct("ours") for r in binned
+                     if r.referents_found and dif.occlusion_bin(r.occlusion_ratio) == row.bin]
+            assert row.found_accuracy == pytest.approx(sum(right) / len(right))
+    assert "every referent found" in difficulty_markdown("pose", rows, {})
+
+
 def test_table1_columns():
     assert table1_column("parts", []) == "Part" and table1_column("pose", []) == "Pose"
     assert table1_column("occlusion", [{"type": "filter_occludee"}]) == "Occ."

@@ -26,19 +26,34 @@ OCCLUSION_BINS = (0, 5, 10, 15, 20, 25, 30)  # percent, lower edges
 PART_SIZE_BINS = ("max", 300, 150, 100, 50, 20)  # upper edges in pixels ("max": above 300)
 
 
-def trace_difficulty(scene, result) -> tuple[float | None, int | None]:
-    """(min occlusion ratio of the trace's objects, largest visible part area) from a reference execution."""
+def trace_referents(result) -> tuple[set[int], set[tuple[int, int]]]:
+    """The objects and the (object, slot) parts a reference execution's trace refers to."""
     objects, parts = set(), set()
     for value, kind in zip(result.outputs, result.types, strict=False):
         if kind == "Object":
             objects.add(int(value))
         elif kind == "Part":
             parts.add((int(value[0]), int(value[1])))
+    return objects, parts
+
+
+def trace_difficulty(scene, result) -> tuple[float | None, int | None]:
+    """(min occlusion ratio of the trace's objects, largest visible part area) from a reference execution."""
+    objects, parts = trace_referents(result)
     ratios = [scene.objects[i].annotation.occlusion_ratio for i in sorted(objects)
               if scene.objects[i].annotation is not None]
     sizes = [_part_pixels(scene, i, slot) for i, slot in sorted(parts)]
     sizes = [s for s in sizes if s is not None]
     return (min(ratios) if ratios else None), (max(sizes) if sizes else None)
+
+
+def referents_found(result, found: set[int] | None) -> bool | None:
+    """Whether perception found (matched a proposal to) every object the trace refers to, parts' owners included;
+    None when the evidence cannot be matched to the scene (``found`` None)."""
+    if found is None:
+        return None
+    objects, parts = trace_referents(result)
+    return (objects | {owner for owner, _ in parts}) <= found
 
 
 def _part_pixels(scene, obj: int, slot: int) -> int | None:
@@ -77,6 +92,10 @@ class DifficultyRow:
     n: int
     accuracy: float | None
     drop: float | None  # relative to the first bin
+    #: Of the ``n`` questions, those whose every referent perception found (None: evidence without boxes), and
+    #: the accuracy on them: what separates the objects perception missed from the readings it got wrong.
+    found: int | None = None
+    found_accuracy: float | None = None
 
 
 def difficulty_table(records, variants: Sequence[str], columns: Sequence[str], key: str) -> list[DifficultyRow]:
@@ -85,19 +104,22 @@ def difficulty_table(records, variants: Sequence[str], columns: Sequence[str], k
     bins, bin_of, value = ((OCCLUSION_BINS, occlusion_bin, lambda r: r.occlusion_ratio) if key == "occlusion"
                            else (PART_SIZE_BINS, part_size_bin, lambda r: r.part_size))
     chosen = [r for r in records if r.item.column in columns and value(r) is not None]
+    matched = any(r.referents_found is not None for r in chosen)  # the evidence could be matched to the scenes
     rows = []
     for variant in variants:
         groups: dict = {b: [] for b in bins}
         for r in chosen:
-            groups[bin_of(value(r))].append(r.correct(variant))
+            groups[bin_of(value(r))].append(r)
         first = None
         for b in bins:
             n = len(groups[b])
-            acc = sum(groups[b]) / n if n else None
+            acc = sum(r.correct(variant) for r in groups[b]) / n if n else None
             if first is None and acc is not None and b == bins[0]:
                 first = acc
             drop = (first - acc) / first if (first and acc is not None) else None
-            rows.append(DifficultyRow(variant, b, n, acc, drop))
+            found = [r for r in groups[b] if r.referents_found]
+            rows.append(DifficultyRow(variant, b, n, acc, drop, len(found) if matched else None,
+                                      sum(r.correct(variant) for r in found) / len(found) if found else None))
     return rows
 
 

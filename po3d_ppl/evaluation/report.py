@@ -33,14 +33,21 @@ def difficulty_markdown(title: str, rows: Sequence[dif.DifficultyRow], paper: di
     bins = list(dict.fromkeys(r.bin for r in rows))
     lines = [f"**{title}**", "", "| method | | " + " | ".join(str(b) for b in bins) + " |",
              "|" + "---|" * (len(bins) + 2)]
-    counts = [str(next(r.n for r in rows if r.bin == b)) for b in bins]
-    lines.append("| *questions* | n | " + " | ".join(counts) + " |")
+    first = [next(r for r in rows if r.bin == b) for b in bins]
+    lines.append("| *questions* | n | " + " | ".join(str(r.n) for r in first) + " |")
+    found = any(r.found is not None for r in rows)
+    if found:
+        lines.append("| *every referent found* | n | " + " | ".join(
+            "-" if r.found is None else str(r.found) for r in first) + " |")
     for method in dict.fromkeys(r.method for r in rows):
         mine = [r for r in rows if r.method == method]
         lines.append(f"| {method} | accuracy | " + " | ".join(
             "-" if r.accuracy is None else f"{100 * r.accuracy:.2f}" for r in mine) + " |")
         lines.append("| | drop | " + " | ".join(
             "-" if r.drop is None else f"{100 * r.drop:.2f}%" for r in mine) + " |")
+        if found:
+            lines.append("| | accuracy, referents found | " + " | ".join(
+                "-" if r.found_accuracy is None else f"{100 * r.found_accuracy:.2f}" for r in mine) + " |")
     for name, values in paper.items():
         lines.append(f"| *paper: {name}* | accuracy | " + " | ".join(f"{v:.2f}" for v in values) + " |")
         lines.append("| | drop | " + " | ".join(f"{100 * (values[0] - v) / values[0]:.2f}%" for v in values) + " |")

@@ -18,7 +18,7 @@ from typing import Any
 from po3d_ppl.errors import InputError
 from po3d_ppl.evaluation.backends import EvidenceBackend, Observation
 from po3d_ppl.evaluation.cache import EvidenceCache
-from po3d_ppl.evaluation.difficulty import trace_difficulty
+from po3d_ppl.evaluation.difficulty import referents_found, trace_difficulty
 
 #: Methods a run can ask for; ``ours`` is reported twice (given the presuppositions, and the joint). A method
 #: with an answer calibration in the run is reported once more, recalibrated (``ours_calibrated``, ...).
@@ -135,6 +135,9 @@ class QuestionRecord:
     #: Difficulty (paper section 5.4): min occlusion ratio of the objects in the trace, largest part area (px).
     occlusion_ratio: float | None = None
     part_size: int | None = None
+    #: Whether the evidence holds a proposal matched to every object of the trace (box IoU >= 0.5; None: the
+    #: evidence has no boxes). Read from the scene, for analysis only, like the difficulty.
+    referents_found: bool | None = None
 
     def correct(self, variant: str) -> bool:
         return _same(self.predictions[variant].top, self.item.truth)
@@ -238,12 +241,13 @@ def evaluate(dataset, split: str, backend: EvidenceBackend, methods: Sequence[st
         timings["perception_s"] += time.perf_counter() - start
         if evidence_transform is not None:
             evidence = evidence_transform(evidence, observation.scene)
+        found = _found_objects(evidence, scene)
         reasoner = SceneReasoner(evidence, priors, semantics)
         start = time.perf_counter()
         reasoner.posteriors  # computed once here, so the per-question timings are reasoning alone
         timings["posterior_s"] += time.perf_counter() - start
         for item in by_image[index]:
-            record = _answer(item, scene, reasoner, methods, once, budget, timings, failures, semantics)
+            record = _answer(item, scene, reasoner, methods, once, budget, timings, failures, semantics, found)
             for method, calibration in calibrations.items():
                 record.predictions[calibrated_variant(method)] = recalibrated(record, calibration, method)
                 failures[calibrated_variant(method)] += record.predictions[method].failure is not None
@@ -273,8 +277,15 @@ def _default_parser():
     return load_question_parser()
 
 
+def _found_objects(evidence, scene) -> set[int] | None:
+    """The scene's objects some proposal of ``evidence`` is matched to (box IoU >= 0.5); None without boxes."""
+    from po3d_ppl.evaluation.projection import matched_proposals
+
+    return None if evidence.boxes is None else set(matched_proposals(evidence, scene)[1])
+
+
 def _answer(item: QuestionItem, scene, reasoner, methods, once, budget, timings, failures,
-            semantics: str = "intended") -> QuestionRecord:
+            semantics: str = "intended", found: set[int] | None = None) -> QuestionRecord:
     from po3d_ppl.questions.executor import execute
 
     reference = execute(scene, item.program, semantics=semantics)
@@ -291,7 +302,7 @@ def _answer(item: QuestionItem, scene, reasoner, methods, once, budget, timings,
             continue
         predictions.update(_infer(item, reasoner, method, once, budget, failures))
         timings[f"inference_{method}_s"] += time.perf_counter() - start
-    return QuestionRecord(item, reference.answer_type, predictions, ratio, size)
+    return QuestionRecord(item, reference.answer_type, predictions, ratio, size, referents_found(reference, found))
 
 
 def _oracle(item: QuestionItem, scene, reference, once, timings, semantics: str = "intended") -> Prediction:
