@@ -216,10 +216,15 @@ def test_the_commands_write_their_reports(tiny, tmp_path):
     common = ["--data", str(tiny.root), "--split", SPLIT, "--limit", "1", "--noise", "0",
               "--cache", str(tmp_path / "cache")]
     result = CliRunner().invoke(app, ["eval", "vqa", *common, "--json", str(tmp_path / "v.json"),
-                                      "--md", str(tmp_path / "v.md"), "--figures", str(tmp_path / "fig")])
+                                      "--md", str(tmp_path / "v.md"), "--figures", str(tmp_path / "fig"),
+                                      "--records", str(tmp_path / "q.jsonl")])
     assert result.exit_code == 0, result.output
     report = json.loads((tmp_path / "v.json").read_text())
     assert {row["method"] for row in report["table1"]} >= {"ours", "oracle"} and report["families"]
+    rows = [json.loads(line) for line in (tmp_path / "q.jsonl").read_text().splitlines()]
+    assert len(rows) == report["questions"] and all(row["referents_found"] for row in rows)
+    assert all(row["answers"]["oracle"]["correct"] and row["answers"]["oracle"]["p_truth"] == 1.0 for row in rows)
+    assert all(row["answers"]["ours"]["top"] == row["truth"] for row in rows)
     assert (tmp_path / "fig" / "difficulty.png").stat().st_size > 1000
     result = CliRunner().invoke(app, ["eval", "calibration", *common, "--methods", "ours,soft",
                                       "--out", str(tmp_path / "cal"), "--sweep", "0"])

@@ -110,6 +110,9 @@ def vqa_command(
     json_out: Path = typer.Option(None, "--json", help="Write the full report (tables, families, difficulty)."),
     md_out: Path = typer.Option(None, "--md", help="Write the Markdown report."),
     figures: Path = typer.Option(None, "--figures", help="Directory for the difficulty plot (PNG)."),
+    records_out: Path = typer.Option(None, "--records", help="Write one JSON line per question (the question, "
+                                     "truth, difficulty, whether perception found its referents, every "
+                                     "variant's answer) for error analysis."),
     parse: bool = typer.Option(False, "--parse", help="Answer through the question parser "
                                                       "(po3d_ppl.pipeline.answer_question) instead of the "
                                                       "ground-truth programs."),
@@ -123,7 +126,7 @@ def vqa_command(
 
     from po3d_ppl.evaluation.metrics import table1, table1_markdown
     from po3d_ppl.evaluation.plots import difficulty_plot
-    from po3d_ppl.evaluation.report import difficulty_panels, vqa_json, vqa_markdown, write_text
+    from po3d_ppl.evaluation.report import difficulty_panels, question_rows, vqa_json, vqa_markdown, write_text
 
     console = Console()
     _, run, store = _run(data, split, methods, noise, seed, limit, cache, parse, device, threads, console,
@@ -136,6 +139,8 @@ def vqa_command(
     if md_out is not None:
         rel = None if figure is None else _relative(figure, Path(md_out).parent)
         write_text(md_out, vqa_markdown(run, rel))
+    if records_out is not None:
+        write_text(records_out, "".join(json.dumps(row, default=str) + "\n" for row in question_rows(run)))
     console.print(table1_markdown(table1(run), paper=False), markup=False, highlight=False, soft_wrap=True)
     console.print(f"{len(run.records)} questions on {run.images} images; evidence cache: {store.hits} hits, "
                   f"{store.misses} misses", markup=False, highlight=False, soft_wrap=True)

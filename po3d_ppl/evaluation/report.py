@@ -68,6 +68,26 @@ def vqa_json(run: EvalRun) -> dict:
     }
 
 
+def question_rows(run: EvalRun) -> list[dict]:
+    """One row per question: what was asked, the truth, its difficulty and every variant's answer (top outcome,
+    its probability, the truth's probability, the invalid mass): the run's records for error analysis, which the
+    aggregate report sums away."""
+    rows = []
+    for record in run.records:
+        item = record.item
+        rows.append({
+            "image": item.image_index, "question_index": item.question_index, "file": item.file,
+            "family": item.family, "column": item.column, "question": item.question, "truth": item.truth,
+            "answer_type": record.answer_type, "occlusion_ratio": record.occlusion_ratio,
+            "part_size": record.part_size, "referents_found": record.referents_found,
+            "answers": {variant: {"top": prediction.top, "confidence": prediction.confidence,
+                                  "p_truth": prediction.probability(item.truth), "invalid": prediction.invalid,
+                                  "correct": record.correct(variant), "failure": prediction.failure}
+                        for variant, prediction in record.predictions.items()},
+        })
+    return rows
+
+
 def vqa_markdown(run: EvalRun, figure: str | None = None) -> str:
     per_question = {k: v / max(len(run.records), 1) * 1000 for k, v in run.timings.items()}
     parts = [
