@@ -35,8 +35,8 @@ def difficulty_markdown(title: str, rows: Sequence[dif.DifficultyRow], paper: di
              "|" + "---|" * (len(bins) + 2)]
     first = [next(r for r in rows if r.bin == b) for b in bins]
     lines.append("| *questions* | n | " + " | ".join(str(r.n) for r in first) + " |")
-    found = any(r.found is not None for r in rows)
-    if found:
+    with_found = any(r.found is not None for r in rows)  # the evidence could be matched to the scenes
+    if with_found:
         lines.append("| *every referent found* | n | " + " | ".join(
             "-" if r.found is None else str(r.found) for r in first) + " |")
     for method in dict.fromkeys(r.method for r in rows):
@@ -45,7 +45,7 @@ def difficulty_markdown(title: str, rows: Sequence[dif.DifficultyRow], paper: di
             "-" if r.accuracy is None else f"{100 * r.accuracy:.2f}" for r in mine) + " |")
         lines.append("| | drop | " + " | ".join(
             "-" if r.drop is None else f"{100 * r.drop:.2f}%" for r in mine) + " |")
-        if found:
+        if with_found:
             lines.append("| | accuracy, referents found | " + " | ".join(
                 "-" if r.found_accuracy is None else f"{100 * r.found_accuracy:.2f}" for r in mine) + " |")
     for name, values in paper.items():
@@ -69,9 +69,9 @@ def vqa_json(run: EvalRun) -> dict:
 
 
 def question_rows(run: EvalRun) -> list[dict]:
-    """One row per question: what was asked, the truth, its difficulty and every variant's answer (top outcome,
-    its probability, the truth's probability, the invalid mass): the run's records for error analysis, which the
-    aggregate report sums away."""
+    """One row per question: what was asked, the truth, its difficulty, whether perception found its referents and
+    every variant's answer (top outcome, confidence, the truth's probability, the invalid mass): the run's records
+    for error analysis, which the aggregate report sums away."""
     rows = []
     for record in run.records:
         item = record.item
