@@ -67,9 +67,11 @@ def main() -> None:
 
 
 def _totals(rows) -> dict[str, tuple[int, float, int]]:
+    """(questions, seconds, fallbacks) per question file, and over all of them under "all"."""
     files: dict[str, list] = defaultdict(list)
     for row in rows:
         files[row["file"]].append(row)
+    files = {**dict(sorted(files.items())), "all": rows}
     return {f: (len(rs), sum(r["seconds"] for r in rs), sum(r["fallback"] for r in rs)) for f, rs in files.items()}
 
 
@@ -77,13 +79,10 @@ def _print(rows, other) -> None:
     mine, theirs = _totals(rows), _totals(other) if other else {}
     print(f"{'file':16s} {'questions':>9s} {'seconds':>8s} {'fallbacks':>9s}" + ("  other s  ratio  fallbacks"
                                                                                   if other else ""))
-    for name in sorted(mine) + ["all"]:
-        n, s, f = (mine[name] if name != "all" else
-                   (len(rows), sum(r["seconds"] for r in rows), sum(r["fallback"] for r in rows)))
+    for name, (n, s, f) in mine.items():
         line = f"{name:16s} {n:9d} {s:8.1f} {f:9d}"
         if other:
-            o = theirs.get(name) if name != "all" else (len(other), sum(r["seconds"] for r in other),
-                                                         sum(r["fallback"] for r in other))
+            o = theirs.get(name, (0, 0.0, 0))
             line += f"  {o[1]:7.1f}  {o[1] / max(s, 1e-9):5.1f}  {o[2]:9d}"
         print(line)
     if other:
