@@ -89,6 +89,26 @@ def test_footprints_overlap_only_when_they_intersect():
     assert footprints_overlap(hyp(0, 0, 0), hyp(0, 1.2, 90), 0.7)  # crossing
 
 
+def test_keep_apart_sends_back_a_better_proposal_that_moved_onto_a_worse_ones_place():
+    """keep_apart: a worse proposal's move into a better one is undone (the first pass), and so is a better
+    proposal's move onto a worse one that did not move (it cannot go back further); moves that meet nothing stay."""
+    from dataclasses import replace
+
+    from po3d_ppl.perception.object_parser import keep_apart
+
+    def bus(x: float, y: float, score: float) -> Hypothesis:
+        return Hypothesis(0, CATEGORIES.index("bus"), 0, 0, x, y, 0.0, 10.0, score)
+
+    config = ParserConfig()
+    accepted = [bus(0.0, 0.0, 200.0), bus(0.0, 1.3, 60.0), bus(0.0, -3.0, 100.0)]
+    moved = [replace(accepted[0], y=0.8), accepted[1], replace(accepted[2], y=-2.6)]
+    assert footprints_overlap(moved[0], moved[1], config.footprint_shrink)
+    kept = keep_apart(moved, accepted, config)
+    assert kept == [accepted[0], accepted[1], moved[2]]
+    worse_moves = [accepted[0], replace(accepted[1], y=0.4), accepted[2]]
+    assert keep_apart(worse_moves, accepted, config) == accepted
+
+
 def test_crowded_scene_proposals_do_not_overlap():
     """Objects do not interpenetrate: after re-search and refinement no two proposals' footprints intersect (seed 3
     had a pair before moves were undone), and each pixel has at most one owner."""
@@ -447,6 +467,36 @@ def test_the_centre_heatmap_brings_a_misplaced_proposal_back_to_its_object(three
     (kept,), _ = relocate([off], *args[:5], replace(config, centre_reach_px=0.0, centre_weight=0.0), *args[6:],
                           heatmap, peaks)
     assert (kept.x, kept.y) == (stays.x, stays.y)  # the prior off: as without the head
+
+
+def test_the_local_search_ignores_the_cells_nearer_proposals_claim(three_apart):
+    """cells_of_nearer gives each proposal the claimed cells of the proposals nearer the camera (none to the
+    nearest); relocate scores a proposal on its other cells only: with every cell hidden from one proposal its
+    tables say nothing (equal over categories), and the other proposals move exactly as without the mask."""
+    from dataclasses import replace
+
+    from po3d_ppl.perception.object_parser import cells_of_nearer, relocate
+
+    _, search = three_apart
+    h, w = search.features.shape[1:]
+    claimed = torch.rand(3, h, w, generator=torch.Generator().manual_seed(0)) > 0.7
+    hyps = [replace(hyp, depth=d) for hyp, d in zip(search.located, (11.0, 9.0, 10.0))]
+    hidden = cells_of_nearer(hyps, claimed)
+    assert not hidden[1].any()
+    assert torch.equal(hidden[2], claimed[1]) and torch.equal(hidden[0], claimed[1] | claimed[2])
+
+    config = replace(search.config, centre_reach_px=0.0, centre_weight=0.0)
+    args = (search.evidence, search.feature_size, search.templates, search.camera, search.camera, config,
+            search.scores, search.grid)
+    free, free_tables = relocate(hyps, *args)
+    mask = torch.zeros(3, h, w, dtype=torch.bool)
+    mask[1] = True
+    moved, tables = relocate(hyps, *args, None, None, mask)
+    assert moved[0] == free[0] and moved[2] == free[2]
+    assert torch.equal(tables[0][0], free_tables[0][0])
+    category = tables[1][0]
+    assert torch.allclose(category, category[0].expand_as(category))  # no evidence for any category
+    assert not torch.allclose(free_tables[1][0], free_tables[1][0][0].expand_as(free_tables[1][0]))
 
 
 def test_a_region_proposal_owns_the_pixels_of_its_region_that_its_mesh_covers():

@@ -114,7 +114,8 @@ class SimulatedBackend:
 #: 14: the camera height compares each candidate's silhouettes at their best shift
 #: (``SceneParserConfig.height_shift_px``). 15: the post-filter lowers existence by at most 1 nat
 #: (``SceneParserConfig.post_filter_max_nats``). The settings key the cache too, so a changed default alone needs
-#: no new version (``SceneParserConfig.min_subtype_weight`` 0.002 -> 0 kept 15).
+#: no new version (``SceneParserConfig.min_subtype_weight`` 0.002 -> 0 kept 15; the new setting
+#: ``ParserConfig.relocate_unoccluded``, the re-search on the cells nearer proposals leave, kept it too).
 EVIDENCE_VERSION = 15
 
 
